@@ -1,0 +1,266 @@
+!> The f2py boundary: one flat module of scalars and explicit-shape arrays, every routine
+!> with an integer status (0 = ok) and a message; no derived types cross it (STYLE.md 5).
+!> Python (pydriver) raises the status as an exception naming the deck, group and key.
+module rotorcable_api
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use rotorcable_kinds, only: dp
+  use rotorcable_errors, only: error_type
+  use rotorcable_deck_scan, only: scan_failure
+  use rotorcable_deck, only: deck_type, load_deck, ANALYSIS_STATIC, ANALYSIS_DYNAMIC
+  use rotorcable_model, only: eom_residual, generalized_forces, mass_matrix, constraint_residual, &
+                              constraint_jacobian, constraint_bias, constraint_velocity, &
+                              solve_accelerations, reaction_wrenches, total_energy
+  use rotorcable_mass_matrix, only: mass_matrix_jourdain
+  use rotorcable_kinematics, only: chain_positions, joint_angles
+  use rotorcable_statics, only: static_result, solve_static
+  use rotorcable_dae_integrator, only: solver_stats, integrate
+  implicit none
+  private
+  public :: rc_deck_info, rc_start_state, rc_run_static, rc_run_dynamic, rc_evaluate, rc_shape
+
+  real(dp), parameter :: RAD2DEG = 180.0_dp/acos(-1.0_dp)
+
+contains
+
+  subroutine open_deck(path, deck, stat, group, key, msg)
+    character(len=*), intent(in) :: path
+    type(deck_type), intent(out) :: deck
+    integer(c_int), intent(out) :: stat
+    character(len=64), intent(out) :: group, key
+    character(len=1024), intent(out) :: msg
+    type(scan_failure) :: fail
+    call load_deck(path, deck, fail)
+    stat = 0; group = ''; key = ''; msg = ''
+    if (fail%failed) then
+      stat = 1
+      group = fail%group
+      key = fail%key
+      msg = fail%reason
+    end if
+  end subroutine open_deck
+
+  !> Sizes and analysis type of a deck.
+  subroutine rc_deck_info(path, n_bodies, nq, nc, n_out, analysis, c_beta, case_name, stat, group, key, msg)
+    character(len=*), intent(in) :: path          !< deck file
+    integer(c_int), intent(out) :: n_bodies              !< bodies
+    integer(c_int), intent(out) :: nq                    !< coordinates
+    integer(c_int), intent(out) :: nc                    !< constraint rows
+    integer(c_int), intent(out) :: n_out                 !< output samples of a dynamic run
+    integer(c_int), intent(out) :: analysis              !< 1 static, 2 dynamic
+    real(c_double), intent(out) :: c_beta               !< bending spring per joint [Nm/rad]
+    character(len=64), intent(out) :: case_name   !< &case name
+    integer(c_int), intent(out) :: stat                  !< 0 = ok
+    character(len=64), intent(out) :: group, key  !< where the deck is wrong
+    character(len=1024), intent(out) :: msg       !< why
+    type(deck_type) :: deck
+    n_bodies = 0; nq = 0; nc = 0; n_out = 0; analysis = 0; c_beta = 0.0_dp; case_name = ''
+    call open_deck(path, deck, stat, group, key, msg)
+    if (stat /= 0) return
+    n_bodies = deck%model%chain%n_bodies
+    nq = deck%model%nq
+    nc = deck%model%nc
+    n_out = nint(deck%integrator%t_end/deck%integrator%dt_out) + 1
+    analysis = deck%analysis
+    c_beta = deck%c_beta
+    case_name = deck%case_name
+  end subroutine rc_deck_info
+
+  !> Start coordinates and rates of a deck (as written, not projected).
+  subroutine rc_start_state(path, nq, q, v, stat, msg)
+    character(len=*), intent(in) :: path          !< deck file
+    integer(c_int), intent(in) :: nq                     !< coordinates
+    real(c_double), intent(out) :: q(nq), v(nq)         !< start coordinates [rad] and rates [rad/s]
+    integer(c_int), intent(out) :: stat                  !< 0 = ok
+    character(len=1024), intent(out) :: msg       !< why not
+    type(deck_type) :: deck
+    character(len=64) :: group, key
+    q = 0.0_dp; v = 0.0_dp
+    call open_deck(path, deck, stat, group, key, msg)
+    if (stat /= 0) return
+    q = deck%q0
+    v = deck%v0
+  end subroutine rc_start_state
+
+  !> Joint angles [deg] and CM / joint-point coordinates [m] of every body for q.
+  subroutine rc_shape(path, nb, nq, q, angles_deg, cm, joints, stat, msg)
+    character(len=*), intent(in) :: path          !< deck file
+    integer(c_int), intent(in) :: nb, nq                 !< bodies, coordinates
+    real(c_double), intent(in) :: q(nq)                 !< coordinates [rad]
+    real(c_double), intent(out) :: angles_deg(nb, 2)    !< (gamma, beta) per joint [deg]
+    real(c_double), intent(out) :: cm(nb, 3)            !< centres of mass [m]
+    real(c_double), intent(out) :: joints(nb + 1, 3)    !< joint points, last = tip [m]
+    integer(c_int), intent(out) :: stat                  !< 0 = ok
+    character(len=1024), intent(out) :: msg       !< why not
+    type(deck_type) :: deck
+    character(len=64) :: group, key
+    angles_deg = 0.0_dp; cm = 0.0_dp; joints = 0.0_dp
+    call open_deck(path, deck, stat, group, key, msg)
+    if (stat /= 0) return
+    call fill_shape(deck, q, angles_deg, cm, joints)
+  end subroutine rc_shape
+
+  subroutine fill_shape(deck, q, angles_deg, cm, joints)
+    type(deck_type), intent(inout) :: deck
+    real(c_double), intent(in) :: q(:)
+    real(c_double), intent(out) :: angles_deg(:, :), cm(:, :), joints(:, :)
+    integer :: j
+    call chain_positions(deck%model%chain, q, deck%model%st)
+    do j = 1, deck%model%chain%n_bodies
+      angles_deg(j, :) = joint_angles(deck%model%chain, q, j)*RAD2DEG
+    end do
+    cm = transpose(deck%model%st%cm)
+    joints = transpose(deck%model%st%joint_point)
+  end subroutine fill_shape
+
+  !> Static equilibrium (Newton) from the deck's start shape.
+  subroutine rc_run_static(path, nb, nq, ncd, q, lambda, angles_deg, cm, wrenches, stats, gmax, stat, group, key, msg)
+    character(len=*), intent(in) :: path          !< deck file
+    integer(c_int), intent(in) :: nb, nq, ncd            !< bodies, coordinates, max(1, constraint rows)
+    real(c_double), intent(out) :: q(nq)                !< equilibrium coordinates [rad]
+    real(c_double), intent(out) :: lambda(ncd)          !< multipliers
+    real(c_double), intent(out) :: angles_deg(nb, 2)    !< joint angles [deg]
+    real(c_double), intent(out) :: cm(nb, 3)            !< centres of mass [m]
+    real(c_double), intent(out) :: wrenches(12)         !< F_A, M_A, F_B, M_B (support on chain) [N, Nm]
+    integer(c_int), intent(out) :: stats(5)              !< iterations, residual evals, Jacobian evals, line-search cuts, 0
+    real(c_double), intent(out) :: gmax                 !< max |g| position rows [m]
+    integer(c_int), intent(out) :: stat                  !< 0 = ok
+    character(len=64), intent(out) :: group, key  !< where a deck error is
+    character(len=1024), intent(out) :: msg       !< why
+    type(deck_type) :: deck
+    type(error_type) :: error
+    type(static_result) :: res
+    real(dp) :: joints(nb + 1, 3), g(6), zero(nq)
+    integer :: nc
+
+    q = 0.0_dp; lambda = 0.0_dp; angles_deg = 0.0_dp; cm = 0.0_dp; wrenches = 0.0_dp; stats = 0; gmax = 0.0_dp
+    call open_deck(path, deck, stat, group, key, msg)
+    if (stat /= 0) return
+    nc = deck%model%nc
+    q = deck%q0
+    call solve_static(deck%model, deck%statics, q, lambda(1:nc), res, error)
+    stats = [res%iterations, res%residual_evals, res%jacobian_evals, res%line_search_cuts, 0]
+    if (error%code /= 0) then
+      stat = 2
+      msg = error%message
+      return
+    end if
+    zero = 0.0_dp
+    call reaction_wrenches(deck%model, 0.0_dp, q, zero, zero, lambda, wrenches)
+    if (nc > 0) then
+      call constraint_residual(deck%model, q, g)
+      gmax = maxval(abs(g(1:3)))
+    end if
+    call fill_shape(deck, q, angles_deg, cm, joints)
+  end subroutine rc_run_static
+
+  !> Dynamic run with IDA; outputs at t = 0, dt_out, ..., t_end.
+  subroutine rc_run_dynamic(path, nb, nq, nt, t, q, angles_deg, cm, wrenches, energy, gviol, stats, &
+                            stat, group, key, msg)
+    character(len=*), intent(in) :: path          !< deck file
+    integer(c_int), intent(in) :: nb, nq, nt             !< bodies, coordinates, output samples
+    real(c_double), intent(out) :: t(nt)                !< output times [s]
+    real(c_double), intent(out) :: q(nt, nq)            !< coordinates [rad]
+    real(c_double), intent(out) :: angles_deg(nt, 2*nb) !< gamma1, beta1, gamma2, ... [deg]
+    real(c_double), intent(out) :: cm(nt, 3*nb)         !< x1, y1, z1, x2, ... [m]
+    real(c_double), intent(out) :: wrenches(nt, 12)     !< F_A, M_A, F_B, M_B [N, Nm]
+    real(c_double), intent(out) :: energy(nt)           !< total mechanical energy [J]
+    real(c_double), intent(out) :: gviol(nt)            !< max |g| of the position rows [m]
+    integer(c_int), intent(out) :: stats(5)              !< steps, residual evals, Jacobian evals, error-test fails, conv fails
+    integer(c_int), intent(out) :: stat                  !< 0 = ok
+    character(len=64), intent(out) :: group, key  !< where a deck error is
+    character(len=1024), intent(out) :: msg       !< why
+    type(deck_type) :: deck
+    type(error_type) :: error
+    type(solver_stats) :: ss
+    real(dp), allocatable :: q_out(:, :), v_out(:, :), vdot(:), lam(:)
+    real(dp) :: ang(nb, 2), c(nb, 3), joints(nb + 1, 3), g(6)
+    integer :: k, nc, info
+
+    t = 0.0_dp; q = 0.0_dp; angles_deg = 0.0_dp; cm = 0.0_dp; wrenches = 0.0_dp
+    energy = 0.0_dp; gviol = 0.0_dp; stats = 0
+    call open_deck(path, deck, stat, group, key, msg)
+    if (stat /= 0) return
+    nc = deck%model%nc
+    do k = 1, nt
+      t(k) = min((k - 1)*deck%integrator%dt_out, deck%integrator%t_end)
+    end do
+    allocate (q_out(nq, nt), v_out(nq, nt), vdot(nq), lam(max(nc, 1)))
+    call integrate(deck%model, deck%integrator, deck%q0, deck%v0, t, q_out, v_out, ss, error)
+    stats = [ss%steps, ss%residual_evals, ss%jacobian_evals, ss%error_test_failures, ss%convergence_failures]
+    if (error%code /= 0) then
+      stat = 2
+      msg = error%message
+      return
+    end if
+    lam = 0.0_dp
+    do k = 1, nt
+      q(k, :) = q_out(:, k)
+      ! Reactions from the multipliers of eq. 3.55/3.57 at the integrated state.
+      call solve_accelerations(deck%model, t(k), q_out(:, k), v_out(:, k), vdot, lam(1:nc), info)
+      call reaction_wrenches(deck%model, t(k), q_out(:, k), v_out(:, k), vdot, lam, wrenches(k, :))
+      energy(k) = total_energy(deck%model, q_out(:, k), v_out(:, k))
+      if (nc > 0) then
+        call constraint_residual(deck%model, q_out(:, k), g)
+        gviol(k) = maxval(abs(g(1:3)))
+      end if
+      call fill_shape(deck, q_out(:, k), ang, c, joints)
+      angles_deg(k, 1::2) = ang(:, 1)
+      angles_deg(k, 2::2) = ang(:, 2)
+      cm(k, 1::3) = c(:, 1)
+      cm(k, 2::3) = c(:, 2)
+      cm(k, 3::3) = c(:, 3)
+    end do
+  end subroutine rc_run_dynamic
+
+  !> Every model quantity at one state, for the tests (checks against independent
+  !> formulations and finite differences).
+  subroutine rc_evaluate(path, nq, ncd, t, q, v, vdot, lambda, mass_crba, mass_jourdain, k_gen, res, &
+                         g, g_jac, g_bias, g_vel, vdot_acc, lambda_acc, wrenches, energy, stat, msg)
+    character(len=*), intent(in) :: path          !< deck file
+    integer(c_int), intent(in) :: nq, ncd                !< coordinates, max(1, constraint rows)
+    real(c_double), intent(in) :: t                     !< time [s]
+    real(c_double), intent(in) :: q(nq), v(nq), vdot(nq) !< state and accelerations
+    real(c_double), intent(in) :: lambda(ncd)           !< multipliers
+    real(c_double), intent(out) :: mass_crba(nq, nq)    !< M by composite rigid bodies
+    real(c_double), intent(out) :: mass_jourdain(nq, nq) !< M by the thesis's Jourdain form
+    real(c_double), intent(out) :: k_gen(nq)            !< k(q, v, t)
+    real(c_double), intent(out) :: res(nq)              !< M vdot - k - G^T lambda by inverse dynamics
+    real(c_double), intent(out) :: g(ncd)               !< g(q)
+    real(c_double), intent(out) :: g_jac(ncd, nq)       !< G(q)
+    real(c_double), intent(out) :: g_bias(ncd)          !< Gdot v
+    real(c_double), intent(out) :: g_vel(ncd)           !< G v
+    real(c_double), intent(out) :: vdot_acc(nq)         !< accelerations from eq. 3.55
+    real(c_double), intent(out) :: lambda_acc(ncd)      !< multipliers from eq. 3.55
+    real(c_double), intent(out) :: wrenches(12)         !< support wrenches for (vdot_acc, lambda_acc)
+    real(c_double), intent(out) :: energy               !< total energy [J]
+    integer(c_int), intent(out) :: stat                  !< 0 = ok
+    character(len=1024), intent(out) :: msg       !< why not
+    type(deck_type) :: deck
+    character(len=64) :: group, key
+    integer :: nc, info
+
+    mass_crba = 0.0_dp; mass_jourdain = 0.0_dp; k_gen = 0.0_dp; res = 0.0_dp; g = 0.0_dp; g_jac = 0.0_dp
+    g_bias = 0.0_dp; g_vel = 0.0_dp; vdot_acc = 0.0_dp; lambda_acc = 0.0_dp; wrenches = 0.0_dp; energy = 0.0_dp
+    call open_deck(path, deck, stat, group, key, msg)
+    if (stat /= 0) return
+    nc = deck%model%nc
+    call mass_matrix(deck%model, q, mass_crba)
+    call mass_matrix_jourdain(deck%model%chain, deck%model%st, mass_jourdain)
+    call generalized_forces(deck%model, t, q, v, k_gen)
+    call eom_residual(deck%model, t, q, v, vdot, lambda, res)
+    if (nc > 0) then
+      call constraint_residual(deck%model, q, g(1:nc))
+      call constraint_jacobian(deck%model, q, g_jac(1:nc, :))
+      call constraint_bias(deck%model, q, v, g_bias(1:nc))
+      call constraint_velocity(deck%model, q, v, g_vel(1:nc))
+    end if
+    call solve_accelerations(deck%model, t, q, v, vdot_acc, lambda_acc(1:nc), info)
+    if (info /= 0) then
+      stat = 3
+      msg = 'singular acceleration system'
+    end if
+    call reaction_wrenches(deck%model, t, q, v, vdot_acc, lambda_acc, wrenches)
+    energy = total_energy(deck%model, q, v)
+  end subroutine rc_evaluate
+
+end module rotorcable_api

@@ -1,0 +1,266 @@
+!> Time integration of the stabilised index-2 DAE with SUNDIALS IDA.
+!>
+!> Gear-Gupta-Leimkuhler form (Gear, Gupta, Leimkuhler 1985; Hairer & Wanner II,
+!> ch. VII.1; SUNDIALS example idaSlCrank_dns.c), unknowns y = (q, v, lambda, mu):
+!>   0 = qdot - v + G^T mu                 (velocity projection, mu = 0 exactly)
+!>   0 = M vdot - k - G^T lambda           (eq. 3.50, evaluated by inverse dynamics, O(n))
+!>   0 = g(q)                              (eq. 3.51)
+!>   0 = G(q) v                            (eq. 3.53)
+!> lambda and mu are algebraic (IDASetId = 0) and excluded from the error test
+!> (IDASetSuppressAlg).  Consistent initial values are computed here because IDACalcIC
+!> covers index 1 only.  An open chain has nc = 0 and the same code path.
+module rotorcable_dae_integrator
+  use, intrinsic :: iso_c_binding, only: c_int, c_long, c_int64_t, c_double, c_ptr, c_funptr, &
+                                         c_loc, c_funloc, c_f_pointer, c_null_ptr, c_associated, c_char
+  use rotorcable_kinds, only: dp
+  use rotorcable_errors, only: error_type, fatal_error
+  use rotorcable_model, only: model_type, eom_residual, constraint_residual, constraint_jacobian, &
+                              constraint_velocity, solve_accelerations
+  use rotorcable_linalg, only: solve_least_norm
+  use rotorcable_ida_binding
+  implicit none
+  private
+  public :: integrator_settings, solver_stats, consistent_start, integrate
+
+  !> Settings of one time integration (from the deck's &solver group).
+  type :: integrator_settings
+    real(dp) :: t_end = 1.0_dp                !< end time [s]
+    real(dp) :: dt_out = 1.0e-2_dp            !< output interval [s]
+    real(dp) :: rtol = 1.0e-8_dp              !< relative tolerance
+    real(dp) :: atol = 1.0e-10_dp             !< absolute tolerance on q [rad] and v [rad/s]
+    real(dp) :: atol_multiplier = 1.0e-2_dp   !< absolute tolerance on lambda, mu (Newton test only)
+    real(dp) :: h_max = 0.0_dp                !< maximum step [s] (0 = IDA's default)
+    integer :: max_steps = 500000             !< maximum steps per output interval
+  end type integrator_settings
+
+  !> Solver statistics reported in summary.json.
+  type :: solver_stats
+    integer :: steps = 0                      !< accepted steps / Newton iterations
+    integer :: residual_evals = 0             !< residual evaluations (incl. Jacobian DQ)
+    integer :: jacobian_evals = 0             !< Jacobian evaluations
+    integer :: error_test_failures = 0        !< local error test failures
+    integer :: convergence_failures = 0       !< nonlinear convergence failures
+  end type solver_stats
+
+  !> User data handed to IDA (c_loc), turned back with c_f_pointer in the callbacks.
+  type :: ida_user_data
+    type(model_type), pointer :: model => null()
+    integer :: nq = 0
+    integer :: nc = 0
+    character(len=512) :: ida_message = ''
+  end type ida_user_data
+
+contains
+
+  !> Project (q, v) onto g = 0 and G v = 0 (Gauss-Newton, minimum-norm steps) and solve
+  !> the acceleration-level system for vdot and lambda (eq. 3.55); mu starts at 0.
+  subroutine consistent_start(model, t, q, v, vdot, lambda, error)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< start time [s]
+    real(dp), intent(inout) :: q(:), v(:)     !< start state, projected in place
+    real(dp), intent(out) :: vdot(:)          !< consistent accelerations
+    real(dp), intent(out) :: lambda(:)        !< consistent multipliers
+    type(error_type), intent(inout) :: error  !< status
+    real(dp) :: g(model%nc), g_jac(model%nc, model%nq), dq(model%nq), gv(model%nc)
+    integer :: it, info
+
+    if (model%nc > 0) then
+      do it = 1, 50
+        call constraint_residual(model, q, g)
+        if (maxval(abs(g)) < 1.0e-13_dp) exit
+        call constraint_jacobian(model, q, g_jac)
+        call solve_least_norm(g_jac, g, dq, info)
+        if (info /= 0) exit
+        q = q - dq
+      end do
+      call constraint_residual(model, q, g)
+      if (maxval(abs(g)) > 1.0e-10_dp) then
+        call fatal_error(error, 'initial shape cannot be projected onto the clamp constraints '// &
+                         '(|g| stays above 1e-10); the end clamp is out of reach of the start shape')
+        return
+      end if
+      call constraint_velocity(model, q, v, gv)
+      call constraint_jacobian(model, q, g_jac)
+      call solve_least_norm(g_jac, gv, dq, info)
+      v = v - dq
+    end if
+    call solve_accelerations(model, t, q, v, vdot, lambda, info)
+    if (info /= 0) call fatal_error(error, 'singular acceleration system at the start '// &
+                                    '(dependent constraints or zero mass)')
+  end subroutine consistent_start
+
+  !> GGL residual for IDA.  Returns 0 (success); never stops.
+  integer(c_int) function ggl_residual(t, yy, yp, rr, udata) bind(C)
+    real(c_double), value :: t
+    type(c_ptr), value :: yy, yp, rr, udata
+    type(ida_user_data), pointer :: ud
+    real(c_double), pointer :: y(:), yd(:), r(:)
+    integer :: nq, nc, n
+    real(dp), allocatable :: g_jac(:, :)
+
+    call c_f_pointer(udata, ud)
+    nq = ud%nq; nc = ud%nc; n = 2*nq + 2*nc
+    call c_f_pointer(N_VGetArrayPointer(yy), y, [n])
+    call c_f_pointer(N_VGetArrayPointer(yp), yd, [n])
+    call c_f_pointer(N_VGetArrayPointer(rr), r, [n])
+    r(1:nq) = yd(1:nq) - y(nq + 1:2*nq)
+    call eom_residual(ud%model, t, y(1:nq), y(nq + 1:2*nq), yd(nq + 1:2*nq), y(2*nq + 1:2*nq + nc), &
+                      r(nq + 1:2*nq))
+    if (nc > 0) then
+      allocate (g_jac(nc, nq))
+      call constraint_jacobian(ud%model, y(1:nq), g_jac)
+      r(1:nq) = r(1:nq) + matmul(y(2*nq + nc + 1:n), g_jac)
+      call constraint_residual(ud%model, y(1:nq), r(2*nq + 1:2*nq + nc))
+      r(2*nq + nc + 1:n) = matmul(g_jac, y(nq + 1:2*nq))
+    end if
+    ggl_residual = 0
+  end function ggl_residual
+
+  !> IDA error handler: keep the message for the Python exception instead of printing it.
+  subroutine ida_error_handler(code, module_name, function_name, msg, udata) bind(C)
+    integer(c_int), value :: code
+    type(c_ptr), value :: module_name, function_name, msg, udata
+    type(ida_user_data), pointer :: ud
+    character(kind=c_char), pointer :: chars(:)
+    integer :: i
+    if (.not. c_associated(udata) .or. .not. c_associated(msg)) return
+    call c_f_pointer(udata, ud)
+    call c_f_pointer(msg, chars, [len(ud%ida_message)])
+    ud%ida_message = ''
+    do i = 1, len(ud%ida_message)
+      if (chars(i) == achar(0)) exit
+      ud%ida_message(i:i) = chars(i)
+    end do
+    if (code == 0) ud%ida_message = ''
+  end subroutine ida_error_handler
+
+  !> Integrate from t = 0 to settings%t_end; returns the state (q, v) at the output times.
+  subroutine integrate(model, settings, q0, v0, t_out, q_out, v_out, stats, error)
+    type(model_type), intent(inout), target :: model  !< model
+    type(integrator_settings), intent(in) :: settings !< tolerances and output times
+    real(dp), intent(in) :: q0(:), v0(:)              !< start state (projected here)
+    real(dp), intent(in) :: t_out(:)                  !< output times, t_out(1) = start
+    real(dp), intent(out) :: q_out(:, :), v_out(:, :) !< (nq, n_out) states at t_out
+    type(solver_stats), intent(out) :: stats          !< solver statistics
+    type(error_type), intent(inout) :: error          !< status
+    type(ida_user_data), target :: ud
+    type(c_ptr) :: ctx, mem, yy, yp, id, atol, mat, ls
+    real(c_double), pointer :: y(:), yd(:), idv(:), av(:)
+    real(dp) :: q(model%nq), v(model%nq), vdot(model%nq), lambda(max(model%nc, 1))
+    real(c_double) :: tret
+    integer(c_int) :: flag
+    integer(c_int64_t) :: n64
+    integer(c_long) :: counter
+    integer :: nq, nc, n, k
+
+    nq = model%nq; nc = model%nc; n = 2*nq + 2*nc
+    q = q0; v = v0
+    call consistent_start(model, t_out(1), q, v, vdot, lambda(1:nc), error)
+    if (error%code /= 0) return
+    q_out(:, 1) = q; v_out(:, 1) = v
+
+    ud%model => model
+    ud%nq = nq; ud%nc = nc
+    ctx = c_null_ptr; mem = c_null_ptr
+    flag = SUNContext_Create(c_null_ptr, ctx)
+    n64 = int(n, c_int64_t)
+    yy = N_VNew_Serial(n64, ctx); yp = N_VNew_Serial(n64, ctx)
+    id = N_VNew_Serial(n64, ctx); atol = N_VNew_Serial(n64, ctx)
+    call c_f_pointer(N_VGetArrayPointer(yy), y, [n])
+    call c_f_pointer(N_VGetArrayPointer(yp), yd, [n])
+    call c_f_pointer(N_VGetArrayPointer(id), idv, [n])
+    call c_f_pointer(N_VGetArrayPointer(atol), av, [n])
+    y = 0.0_dp; yd = 0.0_dp
+    y(1:nq) = q; y(nq + 1:2*nq) = v
+    if (nc > 0) y(2*nq + 1:2*nq + nc) = lambda(1:nc)
+    yd(1:nq) = v; yd(nq + 1:2*nq) = vdot
+    ! Differential (1) for q and v, algebraic (0) for lambda and mu.
+    idv = 0.0_dp; idv(1:2*nq) = 1.0_dp
+    ! Loose absolute tolerances on the multipliers: they only steer the Newton test,
+    ! an atol of 1e-10 there makes IDA fail at the first step (TOOLCHAIN.md).
+    av = settings%atol_multiplier; av(1:2*nq) = settings%atol
+
+    mem = IDACreate(ctx)
+    call check(IDAInit(mem, c_funloc(ggl_residual), real(t_out(1), c_double), yy, yp), 'IDAInit')
+    call check(IDASVtolerances(mem, real(settings%rtol, c_double), atol), 'IDASVtolerances')
+    call check(IDASetUserData(mem, c_loc(ud)), 'IDASetUserData')
+    call check(IDASetErrHandlerFn(mem, c_funloc(ida_error_handler), c_loc(ud)), 'IDASetErrHandlerFn')
+    call check(IDASetId(mem, id), 'IDASetId')
+    call check(IDASetSuppressAlg(mem, 1_c_int), 'IDASetSuppressAlg')
+    mat = SUNDenseMatrix(n64, n64, ctx)
+    ls = SUNLinSol_Dense(yy, mat, ctx)
+    call check(IDASetLinearSolver(mem, ls, mat), 'IDASetLinearSolver')
+    call check(IDASetMaxNumSteps(mem, int(settings%max_steps, c_long)), 'IDASetMaxNumSteps')
+    if (settings%h_max > 0.0_dp) call check(IDASetMaxStep(mem, real(settings%h_max, c_double)), 'IDASetMaxStep')
+    if (model%loads%pulse_body > 0) then
+      ! Step exactly onto the pulse switching times: the force is discontinuous there.
+      call integrate_pulse_aware()
+    else
+      do k = 2, size(t_out)
+        if (error%code /= 0) exit
+        flag = IDASolve(mem, real(t_out(k), c_double), tret, yy, yp, IDA_NORMAL)
+        call check(flag, 'IDASolve')
+        q_out(:, k) = y(1:nq); v_out(:, k) = y(nq + 1:2*nq)
+      end do
+    end if
+
+    if (c_associated(mem)) then
+      flag = IDAGetNumSteps(mem, counter); stats%steps = int(counter)
+      flag = IDAGetNumResEvals(mem, counter); stats%residual_evals = int(counter)
+      flag = IDAGetNumLinResEvals(mem, counter); stats%residual_evals = stats%residual_evals + int(counter)
+      flag = IDAGetNumJacEvals(mem, counter); stats%jacobian_evals = int(counter)
+      flag = IDAGetNumErrTestFails(mem, counter); stats%error_test_failures = int(counter)
+      flag = IDAGetNumNonlinSolvConvFails(mem, counter); stats%convergence_failures = int(counter)
+      call IDAFree(mem)
+    end if
+    flag = SUNLinSolFree(ls)
+    call SUNMatDestroy(mat)
+    call N_VDestroy(yy); call N_VDestroy(yp); call N_VDestroy(id); call N_VDestroy(atol)
+    flag = SUNContext_Free(ctx)
+
+  contains
+
+    subroutine check(status, what)
+      integer(c_int), intent(in) :: status
+      character(len=*), intent(in) :: what
+      character(len=16) :: buf
+      if (status < 0 .and. error%code == 0) then
+        write (buf, '(i0)') status
+        call fatal_error(error, 'SUNDIALS '//what//' failed with flag '//trim(buf)//': '//trim(ud%ida_message))
+      end if
+    end subroutine check
+
+    subroutine integrate_pulse_aware()
+      real(dp) :: t_switch(2), t_target
+      integer :: kk, s
+      t_switch = [model%loads%pulse_start, model%loads%pulse_end]
+      s = 1
+      do kk = 2, size(t_out)
+        if (error%code /= 0) exit
+        do while (s <= 2)
+          if (t_switch(s) > t_out(kk - 1) .and. t_switch(s) <= t_out(kk)) exit
+          if (t_switch(s) > t_out(kk)) exit
+          s = s + 1
+        end do
+        t_target = t_out(kk)
+        if (s <= 2) then
+          if (t_switch(s) > t_out(kk - 1) .and. t_switch(s) <= t_out(kk)) then
+            call check(IDASetStopTime(mem, real(t_switch(s), c_double)), 'IDASetStopTime')
+            flag = IDASolve(mem, real(t_switch(s), c_double), tret, yy, yp, IDA_NORMAL)
+            call check(flag, 'IDASolve')
+            ! Restart the multistep history at the discontinuity.
+            call check(IDAReInit(mem, tret, yy, yp), 'IDAReInit')
+            s = s + 1
+          end if
+        end if
+        if (t_target > tret) then
+          flag = IDASolve(mem, real(t_target, c_double), tret, yy, yp, IDA_NORMAL)
+          call check(flag, 'IDASolve')
+        end if
+        q_out(:, kk) = y(1:nq); v_out(:, kk) = y(nq + 1:2*nq)
+      end do
+    end subroutine integrate_pulse_aware
+
+  end subroutine integrate
+
+end module rotorcable_dae_integrator

@@ -1,0 +1,34 @@
+!> Error reporting without stopping: library code returns a status and a message
+!> (STYLE.md rule 4; a `stop` would kill the Python interpreter).
+module rotorcable_errors
+  implicit none
+  private
+  public :: error_type, fatal_error, clear_error
+
+  !> Status of an operation: code 0 means success.
+  type :: error_type
+    integer :: code = 0                          !< 0 = ok, > 0 = failure
+    character(len=:), allocatable :: message     !< human-readable reason
+  end type error_type
+
+contains
+
+  !> Record a failure with its message (keeps the first failure if one is already set).
+  pure subroutine fatal_error(error, message, code)
+    type(error_type), intent(inout) :: error     !< status to set
+    character(len=*), intent(in) :: message      !< what went wrong, naming the input
+    integer, intent(in), optional :: code        !< error code (default 1)
+    if (error%code /= 0) return
+    error%code = 1
+    if (present(code)) error%code = code
+    error%message = message
+  end subroutine fatal_error
+
+  !> Reset a status to success.
+  pure subroutine clear_error(error)
+    type(error_type), intent(inout) :: error     !< status to reset
+    error%code = 0
+    error%message = ''
+  end subroutine clear_error
+
+end module rotorcable_errors

@@ -1,0 +1,162 @@
+!> Hand-written iso_c_binding interfaces to the SUNDIALS 6.4 C API used by rotorcable
+!> (Debian's libsundials-dev ships no Fortran modules; see ../shared/TOOLCHAIN.md).
+!> sunindextype is int64_t, realtype double, booleantype int, "long int" is c_long.
+module rotorcable_ida_binding
+  use, intrinsic :: iso_c_binding, only: c_int, c_long, c_int64_t, c_double, c_ptr, c_funptr
+  implicit none
+  private
+  public :: SUNContext_Create, SUNContext_Free, N_VNew_Serial, N_VDestroy, N_VGetArrayPointer, &
+            SUNDenseMatrix, SUNMatDestroy, SUNLinSol_Dense, SUNLinSolFree, IDACreate, IDAInit, &
+            IDASVtolerances, IDASetUserData, IDASetId, IDASetSuppressAlg, IDASetLinearSolver, &
+            IDASetMaxNumSteps, IDASetMaxStep, IDASetStopTime, IDASolve, IDAReInit, IDAFree, &
+            IDAGetNumSteps, IDAGetNumResEvals, IDAGetNumJacEvals, IDAGetNumLinResEvals, &
+            IDAGetNumErrTestFails, IDAGetNumNonlinSolvConvFails, IDASetErrHandlerFn, IDA_NORMAL
+
+  integer(c_int), parameter :: IDA_NORMAL = 1   !< itask of IDASolve: return at tout
+
+  interface
+    integer(c_int) function SUNContext_Create(comm, ctx) bind(C, name='SUNContext_Create')
+      import :: c_int, c_ptr
+      type(c_ptr), value :: comm
+      type(c_ptr) :: ctx
+    end function SUNContext_Create
+    integer(c_int) function SUNContext_Free(ctx) bind(C, name='SUNContext_Free')
+      import :: c_int, c_ptr
+      type(c_ptr) :: ctx
+    end function SUNContext_Free
+    type(c_ptr) function N_VNew_Serial(n, ctx) bind(C, name='N_VNew_Serial')
+      import :: c_ptr, c_int64_t
+      integer(c_int64_t), value :: n
+      type(c_ptr), value :: ctx
+    end function N_VNew_Serial
+    subroutine N_VDestroy(v) bind(C, name='N_VDestroy')
+      import :: c_ptr
+      type(c_ptr), value :: v
+    end subroutine N_VDestroy
+    type(c_ptr) function N_VGetArrayPointer(v) bind(C, name='N_VGetArrayPointer')
+      import :: c_ptr
+      type(c_ptr), value :: v
+    end function N_VGetArrayPointer
+    type(c_ptr) function SUNDenseMatrix(m, n, ctx) bind(C, name='SUNDenseMatrix')
+      import :: c_ptr, c_int64_t
+      integer(c_int64_t), value :: m, n
+      type(c_ptr), value :: ctx
+    end function SUNDenseMatrix
+    subroutine SUNMatDestroy(a) bind(C, name='SUNMatDestroy')
+      import :: c_ptr
+      type(c_ptr), value :: a
+    end subroutine SUNMatDestroy
+    type(c_ptr) function SUNLinSol_Dense(y, a, ctx) bind(C, name='SUNLinSol_Dense')
+      import :: c_ptr
+      type(c_ptr), value :: y, a, ctx
+    end function SUNLinSol_Dense
+    integer(c_int) function SUNLinSolFree(ls) bind(C, name='SUNLinSolFree')
+      import :: c_int, c_ptr
+      type(c_ptr), value :: ls
+    end function SUNLinSolFree
+    type(c_ptr) function IDACreate(ctx) bind(C, name='IDACreate')
+      import :: c_ptr
+      type(c_ptr), value :: ctx
+    end function IDACreate
+    integer(c_int) function IDAInit(mem, res, t0, yy0, yp0) bind(C, name='IDAInit')
+      import :: c_int, c_ptr, c_funptr, c_double
+      type(c_ptr), value :: mem
+      type(c_funptr), value :: res
+      real(c_double), value :: t0
+      type(c_ptr), value :: yy0, yp0
+    end function IDAInit
+    integer(c_int) function IDAReInit(mem, t0, yy0, yp0) bind(C, name='IDAReInit')
+      import :: c_int, c_ptr, c_double
+      type(c_ptr), value :: mem
+      real(c_double), value :: t0
+      type(c_ptr), value :: yy0, yp0
+    end function IDAReInit
+    integer(c_int) function IDASVtolerances(mem, rtol, atol) bind(C, name='IDASVtolerances')
+      import :: c_int, c_ptr, c_double
+      type(c_ptr), value :: mem
+      real(c_double), value :: rtol
+      type(c_ptr), value :: atol
+    end function IDASVtolerances
+    integer(c_int) function IDASetUserData(mem, data) bind(C, name='IDASetUserData')
+      import :: c_int, c_ptr
+      type(c_ptr), value :: mem, data
+    end function IDASetUserData
+    integer(c_int) function IDASetId(mem, id) bind(C, name='IDASetId')
+      import :: c_int, c_ptr
+      type(c_ptr), value :: mem, id
+    end function IDASetId
+    integer(c_int) function IDASetSuppressAlg(mem, flag) bind(C, name='IDASetSuppressAlg')
+      import :: c_int, c_ptr
+      type(c_ptr), value :: mem
+      integer(c_int), value :: flag
+    end function IDASetSuppressAlg
+    integer(c_int) function IDASetLinearSolver(mem, ls, a) bind(C, name='IDASetLinearSolver')
+      import :: c_int, c_ptr
+      type(c_ptr), value :: mem, ls, a
+    end function IDASetLinearSolver
+    integer(c_int) function IDASetMaxNumSteps(mem, mxsteps) bind(C, name='IDASetMaxNumSteps')
+      import :: c_int, c_ptr, c_long
+      type(c_ptr), value :: mem
+      integer(c_long), value :: mxsteps
+    end function IDASetMaxNumSteps
+    integer(c_int) function IDASetMaxStep(mem, hmax) bind(C, name='IDASetMaxStep')
+      import :: c_int, c_ptr, c_double
+      type(c_ptr), value :: mem
+      real(c_double), value :: hmax
+    end function IDASetMaxStep
+    integer(c_int) function IDASetStopTime(mem, tstop) bind(C, name='IDASetStopTime')
+      import :: c_int, c_ptr, c_double
+      type(c_ptr), value :: mem
+      real(c_double), value :: tstop
+    end function IDASetStopTime
+    integer(c_int) function IDASolve(mem, tout, tret, yret, ypret, itask) bind(C, name='IDASolve')
+      import :: c_int, c_ptr, c_double
+      type(c_ptr), value :: mem
+      real(c_double), value :: tout
+      real(c_double) :: tret
+      type(c_ptr), value :: yret, ypret
+      integer(c_int), value :: itask
+    end function IDASolve
+    subroutine IDAFree(mem) bind(C, name='IDAFree')
+      import :: c_ptr
+      type(c_ptr) :: mem
+    end subroutine IDAFree
+    integer(c_int) function IDAGetNumSteps(mem, n) bind(C, name='IDAGetNumSteps')
+      import :: c_int, c_ptr, c_long
+      type(c_ptr), value :: mem
+      integer(c_long) :: n
+    end function IDAGetNumSteps
+    integer(c_int) function IDAGetNumResEvals(mem, n) bind(C, name='IDAGetNumResEvals')
+      import :: c_int, c_ptr, c_long
+      type(c_ptr), value :: mem
+      integer(c_long) :: n
+    end function IDAGetNumResEvals
+    integer(c_int) function IDAGetNumJacEvals(mem, n) bind(C, name='IDAGetNumJacEvals')
+      import :: c_int, c_ptr, c_long
+      type(c_ptr), value :: mem
+      integer(c_long) :: n
+    end function IDAGetNumJacEvals
+    integer(c_int) function IDAGetNumLinResEvals(mem, n) bind(C, name='IDAGetNumLinResEvals')
+      import :: c_int, c_ptr, c_long
+      type(c_ptr), value :: mem
+      integer(c_long) :: n
+    end function IDAGetNumLinResEvals
+    integer(c_int) function IDAGetNumErrTestFails(mem, n) bind(C, name='IDAGetNumErrTestFails')
+      import :: c_int, c_ptr, c_long
+      type(c_ptr), value :: mem
+      integer(c_long) :: n
+    end function IDAGetNumErrTestFails
+    integer(c_int) function IDAGetNumNonlinSolvConvFails(mem, n) bind(C, name='IDAGetNumNonlinSolvConvFails')
+      import :: c_int, c_ptr, c_long
+      type(c_ptr), value :: mem
+      integer(c_long) :: n
+    end function IDAGetNumNonlinSolvConvFails
+    integer(c_int) function IDASetErrHandlerFn(mem, ehfun, eh_data) bind(C, name='IDASetErrHandlerFn')
+      import :: c_int, c_ptr, c_funptr
+      type(c_ptr), value :: mem
+      type(c_funptr), value :: ehfun
+      type(c_ptr), value :: eh_data
+    end function IDASetErrHandlerFn
+  end interface
+
+end module rotorcable_ida_binding

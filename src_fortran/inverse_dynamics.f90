@@ -1,0 +1,70 @@
+!> Recursive Newton-Euler inverse dynamics, O(n) (Featherstone, Rigid Body Dynamics
+!> Algorithms, 2008, ch. 5), in the world frame.
+!>
+!> Given the kinematic state (positions, velocities, accelerations), the applied body
+!> forces and the wrench that clamp B exerts on the tip, returns the joint torques
+!>   tau = M(q) qdd + h(q,qd) - Q_applied - G^T lambda
+!> i.e. the Jourdain sum of eq. 3.46 / 4.87 / 4.90 without forming M.  The backward pass
+!> also yields the wrench each parent exerts on its child, in particular the base on
+!> body 1: the reaction at clamp (or pivot) A.
+module rotorcable_inverse_dynamics
+  use rotorcable_kinds, only: dp
+  use rotorcable_chain, only: chain_type
+  use rotorcable_kinematics, only: chain_state
+  use rotorcable_rotations, only: cross
+  implicit none
+  private
+  public :: inverse_dynamics, world_inertia_times
+
+contains
+
+  !> World-frame inertia of body j times a vector: R diag(theta) R^T v (eq. 4.48/4.49).
+  pure function world_inertia_times(chain, st, j, v) result(iv)
+    type(chain_type), intent(in) :: chain     !< chain description
+    type(chain_state), intent(in) :: st       !< state with current frames
+    integer, intent(in) :: j                  !< body index
+    real(dp), intent(in) :: v(3)              !< world vector
+    real(dp) :: iv(3)
+    iv = matmul(st%rot(:, :, j), chain%inertia(:, j)*matmul(v, st%rot(:, :, j)))
+  end function world_inertia_times
+
+  !> Joint torques and base reaction by the Newton-Euler backward pass.
+  pure subroutine inverse_dynamics(chain, st, force, tip_force, tip_moment, tau, base_force, base_moment)
+    type(chain_type), intent(in) :: chain     !< chain description
+    type(chain_state), intent(in) :: st       !< positions, velocities and accelerations
+    real(dp), intent(in) :: force(:, :)       !< (3,n) applied force at each CM [N]
+    real(dp), intent(in) :: tip_force(3)      !< force of support B on the tip [N]
+    real(dp), intent(in) :: tip_moment(3)     !< moment of support B on the last body [Nm]
+    real(dp), intent(out) :: tau(:)           !< joint torques per coordinate [Nm]
+    real(dp), intent(out) :: base_force(3)    !< force of the base on body 1 at P_1 [N]
+    real(dp), intent(out) :: base_moment(3)   !< moment of the base on body 1 about P_1 [Nm]
+    real(dp) :: f_child(3), n_child(3), f(3), n(3), f_net(3), n_cm(3), w(3), iw(3)
+    integer :: j, k, i0
+
+    ! The "child" of the last body is support B: it receives -F_B, -M_B from the chain.
+    f_child = -tip_force
+    n_child = -tip_moment
+    do j = chain%n_bodies, 1, -1
+      ! Newton (eq. 3.24) and Euler about the CM (eq. 4.52) for body j.
+      f_net = chain%mass(j)*st%acc_cm(:, j) - force(:, j)
+      w = st%omega(:, j)
+      iw = world_inertia_times(chain, st, j, w)
+      n_cm = world_inertia_times(chain, st, j, st%alpha(:, j)) + cross(w, iw)
+      ! Wrench of the parent on body j, moment about the joint point P_j.
+      f = f_net + f_child
+      n = n_cm + cross(st%cm(:, j) - st%joint_point(:, j), f_net) + n_child &
+          + cross(st%joint_point(:, j + 1) - st%joint_point(:, j), f_child)
+      if (chain%n_joint_coords(j) > 0) then
+        i0 = chain%first_coord(j) - 1
+        do k = 1, chain%n_joint_coords(j)
+          tau(i0 + k) = dot_product(st%axes(:, k, j), n)
+        end do
+      end if
+      f_child = f
+      n_child = n
+    end do
+    base_force = f_child
+    base_moment = n_child
+  end subroutine inverse_dynamics
+
+end module rotorcable_inverse_dynamics

@@ -1,0 +1,95 @@
+!> Joint parametrisations behind one interface.
+!>
+!> A joint connects body j-1 (or the base) to body j.  Every parametrisation answers
+!> the same three questions, so the kinematics, inverse dynamics, mass matrix and
+!> constraint code never look at the angles themselves:
+!>   * joint_rotation: relative rotation parent -> child for given joint angles,
+!>   * joint_axes:     world-frame unit axes (one per coordinate) such that the
+!>                     relative angular velocity is  sum_k axes(:,k) * qdot_k,
+!>   * joint_bias:     the part of  d/dt(axes) qdot  that is not caused by the parent
+!>                     frame's own rotation (that part, w_parent x w_rel, is generic).
+!> The thesis's joint (chapter 4.1.1) is JOINT_ZY: gamma about the parent's z, then
+!> beta about the new y.  It is singular in meaning (not in the mass matrix) where
+!> beta = 0: gamma is then a twist and the bending direction is undefined.  A further
+!> parametrisation (e.g. three angles) is added by extending the select-case blocks.
+module rotorcable_joint
+  use rotorcable_kinds, only: dp
+  use rotorcable_rotations, only: rot_y, rot_z, cross
+  implicit none
+  private
+  public :: JOINT_ZY, joint_ndof, joint_rotation, joint_axes, joint_bias, joint_name
+
+  !> Thesis two-angle joint: R_rel = Rz(gamma) Ry(beta), coordinates (gamma, beta).
+  integer, parameter :: JOINT_ZY = 1
+
+contains
+
+  !> Number of coordinates a joint of this parametrisation has when it is free.
+  pure integer function joint_ndof(kind)
+    integer, intent(in) :: kind        !< parametrisation (JOINT_ZY)
+    select case (kind)
+    case (JOINT_ZY)
+      joint_ndof = 2
+    case default
+      joint_ndof = 0
+    end select
+  end function joint_ndof
+
+  !> Name of a parametrisation, for messages and documentation.
+  pure function joint_name(kind) result(name)
+    integer, intent(in) :: kind        !< parametrisation
+    character(len=:), allocatable :: name
+    select case (kind)
+    case (JOINT_ZY)
+      name = 'zy (gamma about z, then beta about new y; thesis 4.1.1)'
+    case default
+      name = 'unknown'
+    end select
+  end function joint_name
+
+  !> Relative rotation parent -> child (active), eq. 4.7/4.8 transposed.
+  pure function joint_rotation(kind, angles) result(r_rel)
+    integer, intent(in) :: kind        !< parametrisation
+    real(dp), intent(in) :: angles(:)  !< joint angles [rad] (gamma, beta) for JOINT_ZY
+    real(dp) :: r_rel(3, 3)
+    select case (kind)
+    case (JOINT_ZY)
+      r_rel = matmul(rot_z(angles(1)), rot_y(angles(2)))
+    case default
+      r_rel = 0.0_dp
+    end select
+  end function joint_rotation
+
+  !> World-frame joint axes, eq. 4.11/4.12: gamma turns about the parent's z axis,
+  !> beta about the child's y axis.
+  pure subroutine joint_axes(kind, r_parent, r_child, axes)
+    integer, intent(in) :: kind               !< parametrisation
+    real(dp), intent(in) :: r_parent(3, 3)    !< world <- parent rotation
+    real(dp), intent(in) :: r_child(3, 3)     !< world <- child rotation
+    real(dp), intent(out) :: axes(:, :)       !< (3, ndof) unit axes in the world frame
+    select case (kind)
+    case (JOINT_ZY)
+      axes(:, 1) = r_parent(:, 3)
+      axes(:, 2) = r_child(:, 2)
+    case default
+      axes = 0.0_dp
+    end select
+  end subroutine joint_axes
+
+  !> Joint-intrinsic part of d/dt(axes) qdot.  For JOINT_ZY the gamma axis is fixed in
+  !> the parent and the beta axis in the child, so d/dt(a_beta) contains
+  !> gammadot a_gamma x a_beta beyond the parent's rotation (derivative of eq. 4.19).
+  pure function joint_bias(kind, axes, rates) result(bias)
+    integer, intent(in) :: kind               !< parametrisation
+    real(dp), intent(in) :: axes(:, :)        !< (3, ndof) world axes from joint_axes
+    real(dp), intent(in) :: rates(:)          !< joint coordinate rates [rad/s]
+    real(dp) :: bias(3)
+    select case (kind)
+    case (JOINT_ZY)
+      bias = rates(1)*rates(2)*cross(axes(:, 1), axes(:, 2))
+    case default
+      bias = 0.0_dp
+    end select
+  end function joint_bias
+
+end module rotorcable_joint

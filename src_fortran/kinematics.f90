@@ -1,0 +1,122 @@
+!> Recursive chain kinematics, O(n): frames, joint points, centres of mass, joint axes,
+!> angular and linear velocities and accelerations, all in the world frame.
+!>
+!> Recursion (thesis eq. 4.15-4.23, written recursively instead of per body):
+!>   R_j = R_{j-1} R_rel(q_j),  P_{j+1} = P_j + R_j (0,0,L_j),  C_j = P_j + R_j (0,0,L_j/2)
+!>   w_j = w_{j-1} + sum_k a_k qd_k
+!>   alpha_j = alpha_{j-1} + sum_k a_k qdd_k + w_{j-1} x w_rel + joint_bias
+!>   acc(P_{j+1}) = acc(P_j) + alpha_j x r + w_j x (w_j x r)          (eq. 3.21)
+!> The base (clamp A) is fixed in the world frame.
+module rotorcable_kinematics
+  use rotorcable_kinds, only: dp
+  use rotorcable_chain, only: chain_type
+  use rotorcable_joint, only: joint_rotation, joint_axes, joint_bias
+  use rotorcable_rotations, only: cross
+  implicit none
+  private
+  public :: chain_state, state_allocate, chain_positions, chain_motion, joint_angles
+
+  !> Kinematic state of every body (world frame).
+  type :: chain_state
+    real(dp), allocatable :: rot(:, :, :)       !< (3,3,n) world <- body j
+    real(dp), allocatable :: joint_point(:, :)  !< (3,n+1) P_j; P_{n+1} is the chain tip
+    real(dp), allocatable :: cm(:, :)           !< (3,n) centre of mass C_j
+    real(dp), allocatable :: axes(:, :, :)      !< (3,2,n) world axes of joint j's coordinates
+    real(dp), allocatable :: omega(:, :)        !< (3,n) angular velocity
+    real(dp), allocatable :: alpha(:, :)        !< (3,n) angular acceleration
+    real(dp), allocatable :: vel_joint(:, :)    !< (3,n+1) velocity of P_j
+    real(dp), allocatable :: acc_joint(:, :)    !< (3,n+1) acceleration of P_j
+    real(dp), allocatable :: vel_cm(:, :)       !< (3,n) CM velocity
+    real(dp), allocatable :: acc_cm(:, :)       !< (3,n) CM acceleration
+  end type chain_state
+
+contains
+
+  !> Allocate the state arrays for a chain.
+  pure subroutine state_allocate(chain, st)
+    type(chain_type), intent(in) :: chain      !< chain description
+    type(chain_state), intent(out) :: st       !< state to allocate
+    integer :: n
+    n = chain%n_bodies
+    allocate (st%rot(3, 3, n), st%joint_point(3, n + 1), st%cm(3, n), st%axes(3, 2, n))
+    allocate (st%omega(3, n), st%alpha(3, n), st%vel_joint(3, n + 1), st%acc_joint(3, n + 1))
+    allocate (st%vel_cm(3, n), st%acc_cm(3, n))
+    st%axes = 0.0_dp
+  end subroutine state_allocate
+
+  !> Joint angles of joint j: the coordinates if free, the locked angles otherwise.
+  pure function joint_angles(chain, q, j) result(angles)
+    type(chain_type), intent(in) :: chain      !< chain description
+    real(dp), intent(in) :: q(:)               !< generalized coordinates [rad]
+    integer, intent(in) :: j                   !< joint index
+    real(dp) :: angles(2)
+    if (chain%locked(j)) then
+      angles = chain%locked_angles(:, j)
+    else
+      angles = q(chain%first_coord(j):chain%first_coord(j) + 1)
+    end if
+  end function joint_angles
+
+  !> Frames, joint points, CMs and joint axes for coordinates q.
+  pure subroutine chain_positions(chain, q, st)
+    type(chain_type), intent(in) :: chain      !< chain description
+    real(dp), intent(in) :: q(:)               !< generalized coordinates [rad]
+    type(chain_state), intent(inout) :: st     !< state (positions filled)
+    real(dp) :: r_parent(3, 3)
+    integer :: j, nd
+
+    r_parent = chain%base_rotation
+    st%joint_point(:, 1) = chain%base_position
+    do j = 1, chain%n_bodies
+      st%rot(:, :, j) = matmul(r_parent, joint_rotation(chain%joint_kind(j), joint_angles(chain, q, j)))
+      nd = chain%n_joint_coords(j)
+      if (nd > 0) call joint_axes(chain%joint_kind(j), r_parent, st%rot(:, :, j), st%axes(:, 1:nd, j))
+      st%cm(:, j) = st%joint_point(:, j) + 0.5_dp*chain%length(j)*st%rot(:, 3, j)
+      st%joint_point(:, j + 1) = st%joint_point(:, j) + chain%length(j)*st%rot(:, 3, j)
+      r_parent = st%rot(:, :, j)
+    end do
+  end subroutine chain_positions
+
+  !> Velocities and accelerations for rates qd and accelerations qdd (positions must be current).
+  pure subroutine chain_motion(chain, qd, qdd, st)
+    type(chain_type), intent(in) :: chain      !< chain description
+    real(dp), intent(in) :: qd(:)              !< coordinate rates [rad/s]
+    real(dp), intent(in) :: qdd(:)             !< coordinate accelerations [rad/s^2]
+    type(chain_state), intent(inout) :: st     !< state (motion filled)
+    real(dp) :: w_parent(3), a_parent(3), w_rel(3), r(3)
+    integer :: j, k, i0, nd
+
+    w_parent = 0.0_dp
+    a_parent = 0.0_dp
+    st%vel_joint(:, 1) = 0.0_dp
+    st%acc_joint(:, 1) = 0.0_dp
+    do j = 1, chain%n_bodies
+      st%omega(:, j) = w_parent
+      st%alpha(:, j) = a_parent
+      nd = chain%n_joint_coords(j)
+      if (nd > 0) then
+        i0 = chain%first_coord(j) - 1
+        w_rel = 0.0_dp
+        do k = 1, nd
+          w_rel = w_rel + st%axes(:, k, j)*qd(i0 + k)
+          st%alpha(:, j) = st%alpha(:, j) + st%axes(:, k, j)*qdd(i0 + k)
+        end do
+        st%omega(:, j) = st%omega(:, j) + w_rel
+        st%alpha(:, j) = st%alpha(:, j) + cross(w_parent, w_rel) &
+                         + joint_bias(chain%joint_kind(j), st%axes(:, 1:nd, j), qd(i0 + 1:i0 + nd))
+      end if
+      ! Rigid-body transport of velocity and acceleration along the body (eq. 3.14, 3.21).
+      r = st%cm(:, j) - st%joint_point(:, j)
+      st%vel_cm(:, j) = st%vel_joint(:, j) + cross(st%omega(:, j), r)
+      st%acc_cm(:, j) = st%acc_joint(:, j) + cross(st%alpha(:, j), r) &
+                        + cross(st%omega(:, j), cross(st%omega(:, j), r))
+      r = st%joint_point(:, j + 1) - st%joint_point(:, j)
+      st%vel_joint(:, j + 1) = st%vel_joint(:, j) + cross(st%omega(:, j), r)
+      st%acc_joint(:, j + 1) = st%acc_joint(:, j) + cross(st%alpha(:, j), r) &
+                               + cross(st%omega(:, j), cross(st%omega(:, j), r))
+      w_parent = st%omega(:, j)
+      a_parent = st%alpha(:, j)
+    end do
+  end subroutine chain_motion
+
+end module rotorcable_kinematics

@@ -1,0 +1,61 @@
+!> Elementary rotations and small 3-vector helpers.
+!>
+!> All matrices here are *active* rotations (world <- body).  The thesis writes the
+!> passive transforms A (eq. 4.5-4.8), which are the transposes of these:
+!> A(gamma) = rot_z(gamma)^T, A(beta) = rot_y(beta)^T.
+module rotorcable_rotations
+  use rotorcable_kinds, only: dp
+  implicit none
+  private
+  public :: rot_y, rot_z, cross, skew, vee, identity3
+
+contains
+
+  !> Active rotation about z by angle a (transpose of thesis eq. 4.5).
+  pure function rot_z(a) result(r)
+    real(dp), intent(in) :: a          !< angle [rad]
+    real(dp) :: r(3, 3)
+    real(dp) :: c, s
+    c = cos(a); s = sin(a)
+    r = reshape([c, s, 0.0_dp, -s, c, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp], [3, 3])
+  end function rot_z
+
+  !> Active rotation about y by angle b (transpose of thesis eq. 4.6).
+  pure function rot_y(b) result(r)
+    real(dp), intent(in) :: b          !< angle [rad]
+    real(dp) :: r(3, 3)
+    real(dp) :: c, s
+    c = cos(b); s = sin(b)
+    r = reshape([c, 0.0_dp, -s, 0.0_dp, 1.0_dp, 0.0_dp, s, 0.0_dp, c], [3, 3])
+  end function rot_y
+
+  !> Cross product a x b.
+  pure function cross(a, b) result(c)
+    real(dp), intent(in) :: a(3)       !< first factor
+    real(dp), intent(in) :: b(3)       !< second factor
+    real(dp) :: c(3)
+    c = [a(2)*b(3) - a(3)*b(2), a(3)*b(1) - a(1)*b(3), a(1)*b(2) - a(2)*b(1)]
+  end function cross
+
+  !> Tilde (cross-product) matrix of w, eq. 4.4: skew(w) v = w x v.
+  pure function skew(w) result(m)
+    real(dp), intent(in) :: w(3)       !< vector
+    real(dp) :: m(3, 3)
+    m = reshape([0.0_dp, w(3), -w(2), -w(3), 0.0_dp, w(1), w(2), -w(1), 0.0_dp], [3, 3])
+  end function skew
+
+  !> Inverse of skew: the axial vector (m32, m13, m21) of a matrix.
+  pure function vee(m) result(w)
+    real(dp), intent(in) :: m(3, 3)    !< matrix (only its skew part matters)
+    real(dp) :: w(3)
+    w = [m(3, 2), m(1, 3), m(2, 1)]
+  end function vee
+
+  !> 3x3 identity.
+  pure function identity3() result(m)
+    real(dp) :: m(3, 3)
+    m = 0.0_dp
+    m(1, 1) = 1.0_dp; m(2, 2) = 1.0_dp; m(3, 3) = 1.0_dp
+  end function identity3
+
+end module rotorcable_rotations
