@@ -113,7 +113,7 @@ def evaluate_model(path, q, v=None, vdot=None, lam=None, t=0.0) -> dict:
     lam_in = np.zeros(max(nc, 1))
     if lam is not None and nc:
         lam_in[:nc] = lam
-    out = _core.rc_evaluate(str(path), max(nc, 1), float(t), q, v, vdot, lam_in)
+    out = _core.rc_evaluate(str(path), float(t), q, v, vdot, lam_in)
     (m, mj, k, res, g, gj, gb, gv, vd, la, wr, en, stat, msg) = out
     _check(str(path), stat, msg=msg)
     return {"M": m, "M_jourdain": mj, "k": k, "residual": res, "g": g[:nc], "G": gj[:nc],

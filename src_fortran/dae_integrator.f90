@@ -28,7 +28,7 @@ module rotorcable_dae_integrator
     real(dp) :: dt_out = 1.0e-2_dp            !< output interval [s]
     real(dp) :: rtol = 1.0e-8_dp              !< relative tolerance
     real(dp) :: atol = 1.0e-10_dp             !< absolute tolerance on q [rad] and v [rad/s]
-    real(dp) :: atol_multiplier = 1.0e-2_dp   !< absolute tolerance on lambda, mu (Newton test only)
+    real(dp) :: atol_multiplier = 1.0_dp     !< absolute tolerance on lambda, mu [N, Nm] (Newton test only)
     real(dp) :: h_max = 0.0_dp                !< maximum step [s] (0 = IDA's default)
     integer :: max_steps = 500000             !< maximum steps per output interval
   end type integrator_settings
