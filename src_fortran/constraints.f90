@@ -14,7 +14,8 @@ module rotorcable_constraints
   use rotorcable_rotations, only: cross, skew, vee, identity3
   implicit none
   private
-  public :: clamp_type, clamp_rows, clamp_residual, clamp_jacobian, clamp_bias, clamp_velocity, clamp_wrench
+  public :: clamp_type, clamp_rows, clamp_residual, clamp_jacobian, clamp_bias, clamp_velocity, clamp_wrench, &
+            clamp_closure
 
   !> Far clamp B.
   type :: clamp_type
@@ -111,5 +112,32 @@ contains
     force = lambda(1:3)
     moment = matmul(lambda(4:6), rate_map(orientation_error(clamp, st)))   ! T^T lambda_rot
   end subroutine clamp_wrench
+
+  !> Closure residual without spurious roots, for driving a far start onto the clamp:
+  !> (tip - p_B, E - I) with 3 + 9 rows and its Jacobian (dE/dq_k = skew(a_k) E).
+  !> g_rot = vee(E - E^T)/2 also vanishes at a half-turn error (E = 2uu^T - I, where T has
+  !> rank 1), so a Gauss-Newton closure on g alone can stop at a flipped end orientation;
+  !> E - I vanishes only at E = I.
+  pure subroutine clamp_closure(chain, clamp, st, r, r_jac)
+    type(chain_type), intent(in) :: chain     !< chain description
+    type(clamp_type), intent(in) :: clamp     !< clamp
+    type(chain_state), intent(in) :: st       !< state with current positions
+    real(dp), intent(out) :: r(12)            !< residual
+    real(dp), intent(out) :: r_jac(:, :)      !< (12,nq)
+    real(dp) :: e(3, 3), de(3, 3), tip(3)
+    integer :: j, kk, k
+    e = orientation_error(clamp, st)
+    tip = st%joint_point(:, chain%n_bodies + 1)
+    r(1:3) = tip - clamp%position
+    r(4:12) = reshape(e - identity3(), [9])
+    do j = 1, chain%n_bodies
+      do kk = 1, chain%n_joint_coords(j)
+        k = chain%first_coord(j) + kk - 1
+        r_jac(1:3, k) = cross(st%axes(:, kk, j), tip - st%joint_point(:, j))
+        de = matmul(skew(st%axes(:, kk, j)), e)
+        r_jac(4:12, k) = reshape(de, [9])
+      end do
+    end do
+  end subroutine clamp_closure
 
 end module rotorcable_constraints

@@ -15,8 +15,7 @@ module rotorcable_dae_integrator
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error
   use rotorcable_model, only: model_type, eom_residual, constraint_residual, constraint_jacobian, &
-                              constraint_velocity, solve_accelerations
-  use rotorcable_linalg, only: solve_least_norm
+                              solve_accelerations, project_positions, project_velocities
   use rotorcable_ida_binding
   implicit none
   private
@@ -61,29 +60,14 @@ contains
     real(dp), intent(out) :: vdot(:)          !< consistent accelerations
     real(dp), intent(out) :: lambda(:)        !< consistent multipliers
     type(error_type), intent(inout) :: error  !< status
-    real(dp) :: g(model%nc), g_jac(model%nc, model%nq), dq(model%nq), gv(model%nc)
-    integer :: it, info
+    integer :: info
 
-    if (model%nc > 0) then
-      do it = 1, 50
-        call constraint_residual(model, q, g)
-        if (maxval(abs(g)) < 1.0e-13_dp) exit
-        call constraint_jacobian(model, q, g_jac)
-        call solve_least_norm(g_jac, g, dq, info)
-        if (info /= 0) exit
-        q = q - dq
-      end do
-      call constraint_residual(model, q, g)
-      if (maxval(abs(g)) > 1.0e-10_dp) then
-        call fatal_error(error, 'initial shape cannot be projected onto the clamp constraints '// &
-                         '(|g| stays above 1e-10); the end clamp is out of reach of the start shape')
-        return
-      end if
-      call constraint_velocity(model, q, v, gv)
-      call constraint_jacobian(model, q, g_jac)
-      call solve_least_norm(g_jac, gv, dq, info)
-      v = v - dq
+    if (project_positions(model, q) > 1.0e-10_dp) then
+      call fatal_error(error, 'initial shape cannot be projected onto the clamp constraints '// &
+                       '(|g| stays above 1e-10); the end clamp is out of reach of the start shape')
+      return
     end if
+    call project_velocities(model, q, v)
     call solve_accelerations(model, t, q, v, vdot, lambda, info)
     if (info /= 0) call fatal_error(error, 'singular acceleration system at the start '// &
                                     '(dependent constraints or zero mass)')

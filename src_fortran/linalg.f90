@@ -3,7 +3,7 @@ module rotorcable_linalg
   use rotorcable_kinds, only: dp
   implicit none
   private
-  public :: solve_dense, solve_least_norm
+  public :: solve_dense, solve_least_norm, null_space, solve_spd
 
   interface
     subroutine dgesv(n, nrhs, a, lda, ipiv, b, ldb, info)
@@ -20,6 +20,29 @@ module rotorcable_linalg
       real(dp), intent(in) :: rcond
       integer, intent(out) :: rank, iwork(*), info
     end subroutine dgelsd
+    subroutine dgesvd(jobu, jobvt, m, n, a, lda, s, u, ldu, vt, ldvt, work, lwork, info)
+      import :: dp
+      character, intent(in) :: jobu, jobvt
+      integer, intent(in) :: m, n, lda, ldu, ldvt, lwork
+      real(dp), intent(inout) :: a(lda, *)
+      real(dp), intent(out) :: s(*), u(ldu, *), vt(ldvt, *), work(*)
+      integer, intent(out) :: info
+    end subroutine dgesvd
+    subroutine dpotrf(uplo, n, a, lda, info)
+      import :: dp
+      character, intent(in) :: uplo
+      integer, intent(in) :: n, lda
+      real(dp), intent(inout) :: a(lda, *)
+      integer, intent(out) :: info
+    end subroutine dpotrf
+    subroutine dpotrs(uplo, n, nrhs, a, lda, b, ldb, info)
+      import :: dp
+      character, intent(in) :: uplo
+      integer, intent(in) :: n, nrhs, lda, ldb
+      real(dp), intent(in) :: a(lda, *)
+      real(dp), intent(inout) :: b(ldb, *)
+      integer, intent(out) :: info
+    end subroutine dpotrs
   end interface
 
 contains
@@ -60,5 +83,47 @@ contains
     call dgelsd(m, n, 1, aw, m, bw, ldb, s, -1.0_dp, rank, work, lwork, iwork, info)
     x = bw(1:n)
   end subroutine solve_least_norm
+
+  !> Orthonormal basis of the null space of a full-row-rank (m,n) matrix, m <= n, from its
+  !> singular value decomposition (LAPACK dgesvd): the last n - m right singular vectors.
+  subroutine null_space(a, basis, info)
+    real(dp), intent(in) :: a(:, :)           !< (m,n) matrix
+    real(dp), intent(out) :: basis(:, :)      !< (n, n-m) orthonormal columns with a basis = 0
+    integer, intent(out) :: info              !< LAPACK status (0 = ok)
+    real(dp), allocatable :: aw(:, :), s(:), vt(:, :), work(:)
+    real(dp) :: u(1, 1), wq(1)
+    integer :: m, n, lwork
+    m = size(a, 1); n = size(a, 2)
+    if (m == 0) then
+      basis = 0.0_dp
+      do lwork = 1, n
+        basis(lwork, lwork) = 1.0_dp
+      end do
+      info = 0
+      return
+    end if
+    aw = a
+    allocate (s(min(m, n)), vt(n, n))
+    call dgesvd('N', 'A', m, n, aw, m, s, u, 1, vt, n, wq, -1, info)
+    lwork = int(wq(1))
+    allocate (work(lwork))
+    call dgesvd('N', 'A', m, n, aw, m, s, u, 1, vt, n, work, lwork, info)
+    basis = transpose(vt(m + 1:n, :))
+  end subroutine null_space
+
+  !> Solve A x = b for symmetric positive definite A (Cholesky, LAPACK dpotrf/dpotrs).
+  !> info > 0 if A is not positive definite (A is then left factorised partially).
+  subroutine solve_spd(a, b, info)
+    real(dp), intent(inout) :: a(:, :)        !< (n,n) SPD matrix, overwritten by its factor
+    real(dp), intent(inout) :: b(:)           !< right-hand side -> solution
+    integer, intent(out) :: info              !< LAPACK status (0 = ok)
+    integer :: n
+    n = size(a, 1)
+    info = 0
+    if (n == 0) return
+    call dpotrf('L', n, a, n, info)
+    if (info /= 0) return
+    call dpotrs('L', n, 1, a, n, b, n, info)
+  end subroutine solve_spd
 
 end module rotorcable_linalg

@@ -8,13 +8,14 @@ module rotorcable_model
   use rotorcable_inverse_dynamics, only: inverse_dynamics, world_inertia_times
   use rotorcable_mass_matrix, only: mass_matrix_crba
   use rotorcable_constraints, only: clamp_type, clamp_rows, clamp_residual, clamp_jacobian, &
-                                    clamp_bias, clamp_velocity, clamp_wrench
-  use rotorcable_linalg, only: solve_dense
+                                    clamp_bias, clamp_velocity, clamp_wrench, clamp_closure
+  use rotorcable_linalg, only: solve_dense, solve_least_norm
   implicit none
   private
   public :: model_type, model_init, eom_residual, generalized_forces, mass_matrix, &
             constraint_residual, constraint_jacobian, constraint_bias, constraint_velocity, &
-            solve_accelerations, reactions, total_energy, reaction_wrenches
+            solve_accelerations, reactions, total_energy, reaction_wrenches, project_positions, &
+            project_velocities
 
   !> Everything a run needs to evaluate the equations of motion; the state is workspace.
   type :: model_type
@@ -189,5 +190,72 @@ contains
           + 0.5_dp*dot_product(model%st%omega(:, j), world_inertia_times(model%chain, model%st, j, model%st%omega(:, j)))
     end do
   end function total_energy
+
+  !> Project q onto g(q) = 0: the smallest change of the deck's shape that closes the chain.
+  !> Levenberg-Marquardt on the closure residual (tip - p_B, E - I), which has no spurious
+  !> half-turn roots, with minimum-norm steps (LAPACK dgelsd on [J; sqrt(mu) I]); the damping
+  !> keeps far starts on the branch nearest the deck's shape.  Returns the final max |g|.
+  function project_positions(model, q) result(gmax)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(inout) :: q(:)           !< coordinates, projected in place
+    real(dp) :: gmax
+    real(dp) :: r(12), r_try(12), r_jac(12, model%nq), a(12 + model%nq, model%nq), b(12 + model%nq)
+    real(dp) :: dq(model%nq), q_try(model%nq), mu, g(max(model%nc, 1))
+    integer :: it, info, i, nq
+    gmax = 0.0_dp
+    if (model%nc == 0) return
+    nq = model%nq
+    mu = 0.0_dp
+    call closure(q, r)
+    do it = 1, 500
+      if (maxval(abs(r)) < 1.0e-14_dp) exit
+      call chain_positions(model%chain, q, model%st)
+      call clamp_closure(model%chain, model%clamp, model%st, r, r_jac)
+      do
+        a = 0.0_dp
+        a(1:12, :) = r_jac
+        do i = 1, nq
+          a(12 + i, i) = sqrt(mu)
+        end do
+        b = 0.0_dp
+        b(1:12) = -r
+        call solve_least_norm(a, b, dq, info)
+        q_try = q + dq
+        call closure(q_try, r_try)
+        if (norm2(r_try) < norm2(r) .or. mu > 1.0e8_dp) exit
+        mu = max(10.0_dp*mu, 1.0e-6_dp)
+      end do
+      if (info /= 0 .or. mu > 1.0e8_dp) exit
+      q = q_try
+      r = r_try
+      mu = 0.1_dp*mu
+    end do
+    call constraint_residual(model, q, g)
+    gmax = maxval(abs(g))
+    ! A flipped end orientation would also zero g: require E = I as well.
+    gmax = max(gmax, maxval(abs(r(4:12))))
+  contains
+    subroutine closure(qq, rr)
+      real(dp), intent(in) :: qq(:)
+      real(dp), intent(out) :: rr(12)
+      real(dp) :: jj(12, model%nq)
+      call chain_positions(model%chain, qq, model%st)
+      call clamp_closure(model%chain, model%clamp, model%st, rr, jj)
+    end subroutine closure
+  end function project_positions
+
+  !> Project v onto G(q) v = 0 (minimum-norm change).
+  subroutine project_velocities(model, q, v)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: q(:)              !< coordinates
+    real(dp), intent(inout) :: v(:)           !< rates, projected in place
+    real(dp) :: gv(model%nc), g_jac(model%nc, model%nq), dv(model%nq)
+    integer :: info
+    if (model%nc == 0) return
+    call constraint_velocity(model, q, v, gv)
+    call constraint_jacobian(model, q, g_jac)
+    call solve_least_norm(g_jac, gv, dv, info)
+    v = v - dv
+  end subroutine project_velocities
 
 end module rotorcable_model

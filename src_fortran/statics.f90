@@ -1,17 +1,11 @@
-!> Static equilibrium by Newton's method on
-!>   F(q, lambda) = [ -k(q, 0) - G(q)^T lambda ; g(q) ] = 0
-!> (eq. 3.50 with qdd = qd = 0 and eq. 3.51), solved with LAPACK.
-!>
-!> The blocks with respect to lambda are exact (-G^T and 0); the tangent stiffness
-!> d(-k - G^T lambda)/dq is formed by central differences of the O(n) inverse-dynamics
-!> residual (2 nq evaluations, truncation error ~h^2 ~ 1e-12 relative).  A backtracking
-!> line search on a dimensionally consistent merit (constraint rows scaled by the chain
-!> weight and length) keeps Newton from diverging on far starts.
+!> Static equilibrium  -k(q, 0) - G(q)^T lambda = 0,  g(q) = 0  (eq. 3.50 with qdd = qd = 0,
+!> eq. 3.51), solved by Newton's method on the constraint manifold with LAPACK.
 module rotorcable_statics
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error
-  use rotorcable_model, only: model_type, eom_residual, constraint_residual, constraint_jacobian
-  use rotorcable_linalg, only: solve_dense
+  use rotorcable_model, only: model_type, eom_residual, constraint_residual, constraint_jacobian, &
+                              project_positions, total_energy
+  use rotorcable_linalg, only: solve_least_norm, null_space, solve_spd
   implicit none
   private
   public :: static_settings, static_result, solve_static
@@ -35,7 +29,8 @@ module rotorcable_statics
 
 contains
 
-  subroutine static_residual(model, q, lambda, f, n_eval)
+  !> Force residual f0 = -k(q, 0) (no multipliers) at rest.
+  subroutine rest_forces(model, q, lambda, f, n_eval)
     type(model_type), intent(inout) :: model
     real(dp), intent(in) :: q(:), lambda(:)
     real(dp), intent(out) :: f(:)
@@ -44,12 +39,42 @@ contains
     zero = 0.0_dp
     lam = 0.0_dp
     lam(1:model%nc) = lambda
-    call eom_residual(model, 0.0_dp, q, zero, zero, lam, f(1:model%nq))
-    if (model%nc > 0) call constraint_residual(model, q, f(model%nq + 1:))
+    call eom_residual(model, 0.0_dp, q, zero, zero, lam, f)
     n_eval = n_eval + 1
-  end subroutine static_residual
+  end subroutine rest_forces
 
-  !> Newton iteration from (q, lambda); both are updated in place.
+  !> Multipliers by least squares (G^T lambda = f0), the equilibrium residual f0 - G^T lambda,
+  !> the null-space basis of G and the reduced gradient N^T f0.
+  subroutine reduced_gradient(model, q, lambda, f, basis, grad, n_eval)
+    type(model_type), intent(inout) :: model
+    real(dp), intent(in) :: q(:)
+    real(dp), intent(out) :: lambda(:), f(:), basis(:, :), grad(:)
+    integer, intent(inout) :: n_eval
+    real(dp) :: g_jac(model%nc, model%nq)
+    integer :: info
+    call rest_forces(model, q, [real(dp) ::], f, n_eval)
+    if (model%nc > 0) then
+      call constraint_jacobian(model, q, g_jac)
+      call solve_least_norm(transpose(g_jac), f, lambda, info)
+      f = f - matmul(lambda, g_jac)
+    end if
+    call null_space(g_jac, basis, info)
+    grad = matmul(f, basis)
+  end subroutine reduced_gradient
+
+  !> Static equilibrium from the deck's start shape; q and lambda are updated in place.
+  !>
+  !> 1. Close the start shape onto clamp B (project_positions): the thesis's consistent
+  !>    "Anfangsposition" (section 5.3).
+  !> 2. Newton on the constraint manifold with Levenberg-Marquardt step control: with N a
+  !>    null-space basis of G, solve (N^T K N + mu I) z = -N^T f0, step q + N z, project
+  !>    back onto g = 0, accept if the potential energy (gravity, rotor field, springs)
+  !>    decreases (Armijo) or the reduced gradient halves.  K = d(f0 - G^T lambda)/dq at fixed
+  !>    lambda is the tangent stiffness including the constraint curvature (central
+  !>    differences of the O(n) residual).  mu -> 0 near the solution: quadratic convergence;
+  !>    mu > 0 far from it or where N^T K N is indefinite: a descent step, so the iteration
+  !>    settles into a stable equilibrium like the thesis's damped settling does.
+  !> 3. lambda from G^T lambda = f0 (least squares; exact at equilibrium), eq. 3.50.
   subroutine solve_static(model, settings, q, lambda, res, error)
     type(model_type), intent(inout) :: model      !< model
     type(static_settings), intent(in) :: settings !< tolerances
@@ -57,68 +82,78 @@ contains
     real(dp), intent(inout) :: lambda(:)          !< multipliers (size nc)
     type(static_result), intent(out) :: res       !< statistics
     type(error_type), intent(inout) :: error      !< status
-    integer :: nq, nc, n, it, i, info, cut
-    real(dp) :: f(model%nq + model%nc), f_try(model%nq + model%nc), jac(model%nq + model%nc, model%nq + model%nc)
-    real(dp) :: fp(model%nq + model%nc), fm(model%nq + model%nc), dx(model%nq + model%nc)
-    real(dp) :: q_try(model%nq), lam_try(model%nc), scale(model%nq + model%nc), h, step, merit, merit_try
+    integer :: nq, nc, nf, it, i, info, cut
+    real(dp) :: f(model%nq), fp(model%nq), fm(model%nq), k_tan(model%nq, model%nq)
+    real(dp) :: basis(model%nq, model%nq - model%nc), grad(model%nq - model%nc)
+    real(dp) :: hess(model%nq - model%nc, model%nq - model%nc), hm(model%nq - model%nc, model%nq - model%nc)
+    real(dp) :: z(model%nq - model%nc), q_try(model%nq), lam_try(model%nc), f_try(model%nq)
+    real(dp) :: basis_try(model%nq, model%nq - model%nc), grad_try(model%nq - model%nc), g(max(model%nc, 1))
+    real(dp) :: zero(model%nq), h, mu, scale_h, v_now, v_try
+    logical :: accepted
     character(len=64) :: buf
 
-    nq = model%nq; nc = model%nc; n = nq + nc
-    ! Merit weights: constraint rows (m, rad) times weight x length become moments [Nm].
-    scale = 1.0_dp
-    if (nc > 0) scale(nq + 1:) = max(sum(model%chain%mass)*max(norm2(model%loads%gravity), 1.0_dp) &
-                                     *sum(model%chain%length), 1.0e-12_dp)
-    call static_residual(model, q, lambda, f, res%residual_evals)
+    nq = model%nq; nc = model%nc; nf = nq - nc
+    zero = 0.0_dp
+    if (project_positions(model, q) > 1.0e-9_dp) then
+      call fatal_error(error, 'the start shape cannot be closed onto clamp B (projection failed); '// &
+                       'start from a shape nearer the clamp')
+      return
+    end if
+    mu = 0.0_dp
+    call reduced_gradient(model, q, lambda, f, basis, grad, res%residual_evals)
+    v_now = total_energy(model, q, zero)
     do it = 1, settings%max_iterations
-      res%force_residual = maxval(abs(f(1:nq)))
+      res%force_residual = maxval(abs(f))
       res%constraint_residual = 0.0_dp
-      if (nc > 0) res%constraint_residual = maxval(abs(f(nq + 1:)))
+      if (nc > 0) then
+        call constraint_residual(model, q, g)
+        res%constraint_residual = maxval(abs(g))
+      end if
       if (res%force_residual <= settings%tol_force .and. res%constraint_residual <= settings%tol_constraint) exit
       res%iterations = it
-      ! Jacobian: central differences in q, exact in lambda.
-      jac = 0.0_dp
+      ! Tangent stiffness at fixed lambda by central differences.
       do i = 1, nq
         h = 1.0e-6_dp*max(1.0_dp, abs(q(i)))
         q_try = q; q_try(i) = q(i) + h
-        call static_residual(model, q_try, lambda, fp, res%residual_evals)
+        call rest_forces(model, q_try, lambda, fp, res%residual_evals)
         q_try(i) = q(i) - h
-        call static_residual(model, q_try, lambda, fm, res%residual_evals)
-        jac(:, i) = (fp - fm)/(2.0_dp*h)
+        call rest_forces(model, q_try, lambda, fm, res%residual_evals)
+        k_tan(:, i) = (fp - fm)/(2.0_dp*h)
       end do
-      if (nc > 0) then
-        call constraint_jacobian(model, q, jac(nq + 1:, 1:nq))
-        jac(1:nq, nq + 1:) = -transpose(jac(nq + 1:, 1:nq))
-      end if
       res%jacobian_evals = res%jacobian_evals + 1
-      dx = -f
-      call solve_dense(jac, dx, info)
-      if (info /= 0) then
-        call fatal_error(error, 'static Newton: singular Jacobian (the equilibrium is not isolated; '// &
-                         'add springs or check the clamp geometry)')
-        return
-      end if
-      ! Backtracking line search on the scaled residual norm.
-      merit = norm2(f*scale/scale(1))
-      step = 1.0_dp
-      do cut = 0, 30
-        q_try = q + step*dx(1:nq)
-        lam_try = lambda + step*dx(nq + 1:)
-        call static_residual(model, q_try, lam_try, f_try, res%residual_evals)
-        merit_try = norm2(f_try*scale/scale(1))
-        if (merit_try < (1.0_dp - 1.0e-4_dp*step)*merit .or. merit < 1.0e-9_dp) exit
-        step = 0.5_dp*step
+      hess = matmul(transpose(basis), matmul(k_tan, basis))
+      hess = 0.5_dp*(hess + transpose(hess))
+      scale_h = max(maxval(abs(hess)), tiny(1.0_dp))
+      accepted = .false.
+      do cut = 0, 60
+        hm = hess
+        do i = 1, nf
+          hm(i, i) = hm(i, i) + mu
+        end do
+        z = -grad
+        call solve_spd(hm, z, info)
+        if (info == 0) then
+          q_try = q + matmul(basis, z)
+          if (project_positions(model, q_try) <= 1.0e-9_dp) then
+            call reduced_gradient(model, q_try, lam_try, f_try, basis_try, grad_try, res%residual_evals)
+            v_try = total_energy(model, q_try, zero)
+            accepted = v_try <= v_now + 1.0e-4_dp*dot_product(grad, z) .or. &
+                       norm2(grad_try) <= 0.5_dp*norm2(grad)
+            if (accepted) exit
+          end if
+        end if
+        mu = max(4.0_dp*mu, 1.0e-8_dp*scale_h)
         res%line_search_cuts = res%line_search_cuts + 1
       end do
-      q = q_try
-      lambda = lam_try
-      f = f_try
+      if (.not. accepted) exit
+      q = q_try; lambda = lam_try; f = f_try; basis = basis_try; grad = grad_try; v_now = v_try
+      mu = 0.25_dp*mu
+      if (mu < 1.0e-12_dp*scale_h) mu = 0.0_dp
     end do
-    res%force_residual = maxval(abs(f(1:nq)))
-    if (nc > 0) res%constraint_residual = maxval(abs(f(nq + 1:)))
     if (res%force_residual > 1.0e3_dp*settings%tol_force .or. &
         res%constraint_residual > 1.0e3_dp*settings%tol_constraint) then
       write (buf, '(es10.3,a,es10.3)') res%force_residual, ' / ', res%constraint_residual
-      call fatal_error(error, 'static Newton did not converge (residual force / constraint = '//trim(buf)//')')
+      call fatal_error(error, 'static equilibrium not found (residual force [Nm] / constraint = '//trim(buf)//')')
     end if
   end subroutine solve_static
 
