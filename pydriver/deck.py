@@ -13,7 +13,7 @@ from pydriver import _rotorcable
 
 _core = _rotorcable.rotorcable_api
 
-ANALYSES = {1: "static", 2: "dynamic"}
+ANALYSES = {1: "static", 2: "dynamic", 3: "modal"}
 SOLVER_KEYS_DYNAMIC = ("steps", "residual_evals", "jacobian_evals", "error_test_failures",
                        "convergence_failures")
 SOLVER_KEYS_STATIC = ("newton_iterations", "residual_evals", "jacobian_evals", "line_search_cuts")
@@ -82,11 +82,13 @@ def deck_info(path) -> dict:
     path = str(path)
     if not os.path.isfile(path):
         raise DeckError(os.path.basename(path), "", "", "deck file not found")
-    nb, nq, nc, nt, analysis, c_beta, name, stat, group, key, msg = _core.rc_deck_info(path)
+    (nb, nq, nc, nt, analysis, c_beta, name, pulse_body, pulse_end, stat, group, key,
+     msg) = _core.rc_deck_info(path)
     _check(path, stat, group, key, msg)
     return {"n_bodies": int(nb), "n_coords": int(nq), "n_constraints": int(nc), "n_out": int(nt),
             "analysis": ANALYSES[int(analysis)], "c_beta": float(c_beta),
-            "case": _text(name) or Path(path).stem}
+            "case": _text(name) or Path(path).stem, "pulse_body": int(pulse_body),
+            "pulse_end": float(pulse_end)}
 
 
 def shape(path, q) -> dict:
@@ -128,6 +130,43 @@ def _reactions(w, has_b: bool) -> dict:
     return out
 
 
+def _equilibrium_summary(path, info, kind, wall, st, gmax, wr) -> dict:
+    nc = info["n_constraints"]
+    return {"case": info["case"], "deck": os.path.basename(path), "analysis": kind,
+            "wall_time_s": wall,
+            "solver": dict(zip(SOLVER_KEYS_STATIC, (int(x) for x in st[:4]))),
+            "max_constraint_violation_m": float(gmax),
+            "reactions": _reactions(wr, nc > 0),
+            "n_bodies": info["n_bodies"], "n_coords": info["n_coords"], "n_constraints": nc,
+            "c_beta_Nm_per_rad": info["c_beta"]}
+
+
+def _table(nb, ang, cm) -> dict:
+    return {"body": np.arange(1, nb + 1), "gamma_deg": ang[:, 0], "beta_deg": ang[:, 1],
+            "x_m": cm[:, 0], "y_m": cm[:, 1], "z_m": cm[:, 2]}
+
+
+def _run_modal(path, info, t0) -> Result:
+    nb, nq, nc = info["n_bodies"], info["n_coords"], info["n_constraints"]
+    nf = nq - nc
+    (q, lam, ang, cm, wr, fu, fd, zeta, shapes, cm_shapes, st, gmax, stat, group, key, msg) = \
+        _core.rc_run_modal(path, nb, nq, max(nc, 1), nf)
+    _check(path, stat, group, key, msg)
+    summary = _equilibrium_summary(path, info, "modal", time.perf_counter() - t0, st, gmax, wr)
+    summary["frequencies_hz"] = [float(x) for x in fu]
+    summary["damped_frequencies_hz"] = [float(x) for x in fd]
+    summary["damping_ratios"] = [float(x) for x in zeta]
+    # Mode shapes as CM displacements, each scaled to a largest component of 1.
+    scale = np.max(np.abs(cm_shapes), axis=0)
+    scale[scale == 0] = 1.0
+    modes = {"mode": np.arange(1, nf + 1), "f_undamped_hz": fu, "f_damped_hz": fd, "zeta": zeta}
+    for j in range(nb):
+        for c, name in enumerate("xyz"):
+            modes[f"d{name}{j + 1}"] = cm_shapes[3 * j + c] / scale
+    return Result(summary=summary, table=_table(nb, ang, cm),
+                  extra={"q": q, "lambda": lam[:nc], "modes": modes, "mode_shapes_q": shapes})
+
+
 def run_deck(path, out=None, plots: bool = False) -> Result:
     """Run a deck and return its results; write files only when ``out`` is given.
 
@@ -156,7 +195,9 @@ def run_deck(path, out=None, plots: bool = False) -> Result:
     info = deck_info(path)
     nb, nq, nc = info["n_bodies"], info["n_coords"], info["n_constraints"]
     t0 = time.perf_counter()
-    if info["analysis"] == "static":
+    if info["analysis"] == "modal":
+        result = _run_modal(path, info, t0)
+    elif info["analysis"] == "static":
         (q, lam, ang, cm, wr, st, gmax, stat, group, key, msg) = _core.rc_run_static(
             path, nb, nq, max(nc, 1))
         _check(path, stat, group, key, msg)
@@ -200,6 +241,10 @@ def run_deck(path, out=None, plots: bool = False) -> Result:
                    "n_bodies": nb, "n_coords": nq, "n_constraints": nc}
         result = Result(summary=summary, timeseries=ts,
                         extra={"q": q, "energy": energy, "constraint_violation": gviol})
+        if info["pulse_body"] > 0:
+            from pydriver.signal import decay_analysis
+            signal = f"z{info['pulse_body']}"
+            result.summary["decay"] = decay_analysis(t, ts[signal], signal, info["pulse_end"])
     if out is not None:
         from pydriver.output import write_result
         write_result(result, Path(out), plots=plots)

@@ -28,7 +28,8 @@ def format_table(result) -> str:
                      f"{t['x_m'][i]:8.4f}  {t['y_m'][i]:8.4f}  {t['z_m'][i]:8.4f}")
     cy = f"{s.get('c_beta_Nm_per_rad', 0.0):.2f}".replace(".", ",")
     lines.append("")
-    lines.append(f"Tabelle: Statische Ruhelage {s['case']}, c_y = {cy} Nm/rad")
+    what = "Ruhelage" if "hover" in s["case"] else "Statische Ruhelage"
+    lines.append(f"Tabelle: {what} {s['case']}, c_y = {cy} Nm/rad")
     return "\n".join(lines) + "\n"
 
 
@@ -58,6 +59,8 @@ def write_result(result, out: Path, plots: bool = False) -> list[Path]:
         files["table.csv"] = table_csv(result.table)
     if result.timeseries is not None:
         files["timeseries.csv"] = _csv(result.timeseries)
+    if "modes" in result.extra:
+        files["modes.csv"] = _csv(result.extra["modes"])
     out.mkdir(parents=True, exist_ok=True)
     staged: list[tuple[str, Path]] = []
     try:

@@ -4,9 +4,10 @@
 module rotorcable_api
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use rotorcable_kinds, only: dp
-  use rotorcable_errors, only: error_type
+  use rotorcable_errors, only: error_type, fatal_error
   use rotorcable_deck_scan, only: scan_failure
-  use rotorcable_deck, only: deck_type, load_deck, ANALYSIS_STATIC, ANALYSIS_DYNAMIC
+  use rotorcable_deck, only: deck_type, load_deck, ANALYSIS_STATIC, ANALYSIS_DYNAMIC, ANALYSIS_MODAL
+  use rotorcable_modal, only: modal_analysis
   use rotorcable_model, only: eom_residual, generalized_forces, mass_matrix, constraint_residual, &
                               constraint_jacobian, constraint_bias, constraint_velocity, &
                               solve_accelerations, reaction_wrenches, total_energy
@@ -16,7 +17,7 @@ module rotorcable_api
   use rotorcable_dae_integrator, only: solver_stats, integrate
   implicit none
   private
-  public :: rc_deck_info, rc_start_state, rc_run_static, rc_run_dynamic, rc_evaluate, rc_shape
+  public :: rc_deck_info, rc_start_state, rc_run_static, rc_run_dynamic, rc_evaluate, rc_shape, rc_run_modal
 
   real(dp), parameter :: RAD2DEG = 180.0_dp/acos(-1.0_dp)
 
@@ -40,20 +41,24 @@ contains
   end subroutine open_deck
 
   !> Sizes and analysis type of a deck.
-  subroutine rc_deck_info(path, n_bodies, nq, nc, n_out, analysis, c_beta, case_name, stat, group, key, msg)
+  subroutine rc_deck_info(path, n_bodies, nq, nc, n_out, analysis, c_beta, case_name, pulse_body, pulse_end, &
+                          stat, group, key, msg)
     character(len=*), intent(in) :: path          !< deck file
     integer(c_int), intent(out) :: n_bodies              !< bodies
     integer(c_int), intent(out) :: nq                    !< coordinates
     integer(c_int), intent(out) :: nc                    !< constraint rows
     integer(c_int), intent(out) :: n_out                 !< output samples of a dynamic run
-    integer(c_int), intent(out) :: analysis              !< 1 static, 2 dynamic
+    integer(c_int), intent(out) :: analysis              !< 1 static, 2 dynamic, 3 modal
     real(c_double), intent(out) :: c_beta               !< bending spring per joint [Nm/rad]
     character(len=64), intent(out) :: case_name   !< &case name
+    integer(c_int), intent(out) :: pulse_body     !< body loaded by a force pulse (0 = none)
+    real(c_double), intent(out) :: pulse_end      !< end of the pulse [s]
     integer(c_int), intent(out) :: stat                  !< 0 = ok
     character(len=64), intent(out) :: group, key  !< where the deck is wrong
     character(len=1024), intent(out) :: msg       !< why
     type(deck_type) :: deck
     n_bodies = 0; nq = 0; nc = 0; n_out = 0; analysis = 0; c_beta = 0.0_dp; case_name = ''
+    pulse_body = 0; pulse_end = 0.0_dp
     call open_deck(path, deck, stat, group, key, msg)
     if (stat /= 0) return
     n_bodies = deck%model%chain%n_bodies
@@ -63,6 +68,8 @@ contains
     analysis = deck%analysis
     c_beta = deck%c_beta
     case_name = deck%case_name
+    pulse_body = deck%model%loads%pulse_body
+    pulse_end = deck%model%loads%pulse_end
   end subroutine rc_deck_info
 
   !> Start coordinates and rates of a deck (as written, not projected).
@@ -112,7 +119,49 @@ contains
     joints = transpose(deck%model%st%joint_point)
   end subroutine fill_shape
 
-  !> Static equilibrium (Newton) from the deck's start shape.
+  !> Equilibrium of a deck: Newton on the constraint manifold, or damped dynamic settling
+  !> (the thesis's route, section 5.3) when the deck asks for static_method = 'settle'.
+  subroutine equilibrium(deck, q, lambda, stats, error)
+    type(deck_type), intent(inout) :: deck
+    real(dp), intent(out) :: q(:), lambda(:)
+    integer, intent(out) :: stats(5)
+    type(error_type), intent(inout) :: error
+    type(static_result) :: res
+    type(solver_stats) :: ss
+    real(dp), allocatable :: t(:), q_out(:, :), v_out(:, :), vdot(:)
+    integer :: nt, k, info, pulse_body
+    character(len=32) :: buf
+    q = deck%q0
+    lambda = 0.0_dp
+    ! The equilibrium is that of the steady loads: a force pulse is a dynamic excitation.
+    pulse_body = deck%model%loads%pulse_body
+    deck%model%loads%pulse_body = 0
+    if (.not. deck%settle) then
+      call solve_static(deck%model, deck%statics, q, lambda, res, error)
+      stats = [res%iterations, res%residual_evals, res%jacobian_evals, res%line_search_cuts, 0]
+      deck%model%loads%pulse_body = pulse_body
+      return
+    end if
+    nt = nint(deck%integrator%t_end/deck%integrator%dt_out) + 1
+    allocate (t(nt), q_out(deck%model%nq, nt), v_out(deck%model%nq, nt), vdot(deck%model%nq))
+    do k = 1, nt
+      t(k) = min((k - 1)*deck%integrator%dt_out, deck%integrator%t_end)
+    end do
+    call integrate(deck%model, deck%integrator, deck%q0, 0.0_dp*deck%q0, t, q_out, v_out, ss, error)
+    stats = [ss%steps, ss%residual_evals, ss%jacobian_evals, ss%error_test_failures, ss%convergence_failures]
+    if (error%code /= 0) return
+    q = q_out(:, nt)
+    if (maxval(abs(v_out(:, nt))) > deck%settle_tol) then
+      write (buf, '(es10.3)') maxval(abs(v_out(:, nt)))
+      call fatal_error(error, 'dynamic settling: not at rest at t_end (max |qdot| = '//trim(buf)// &
+                       ' rad/s > settle_tol); increase t_end')
+      return
+    end if
+    call solve_accelerations(deck%model, t(nt), q, 0.0_dp*q, vdot, lambda(1:deck%model%nc), info)
+    deck%model%loads%pulse_body = pulse_body
+  end subroutine equilibrium
+
+  !> Static equilibrium from the deck's start shape.
   subroutine rc_run_static(path, nb, nq, ncd, q, lambda, angles_deg, cm, wrenches, stats, gmax, stat, group, key, msg)
     character(len=*), intent(in) :: path          !< deck file
     integer(c_int), intent(in) :: nb, nq, ncd            !< bodies, coordinates, max(1, constraint rows)
@@ -121,37 +170,89 @@ contains
     real(c_double), intent(out) :: angles_deg(nb, 2)    !< joint angles [deg]
     real(c_double), intent(out) :: cm(nb, 3)            !< centres of mass [m]
     real(c_double), intent(out) :: wrenches(12)         !< F_A, M_A, F_B, M_B (support on chain) [N, Nm]
-    integer(c_int), intent(out) :: stats(5)              !< iterations, residual evals, Jacobian evals, line-search cuts, 0
+    integer(c_int), intent(out) :: stats(5)              !< Newton: iterations, residual evals, Jacobians, step cuts; settling: IDA stats
     real(c_double), intent(out) :: gmax                 !< max |g| position rows [m]
     integer(c_int), intent(out) :: stat                  !< 0 = ok
     character(len=64), intent(out) :: group, key  !< where a deck error is
     character(len=1024), intent(out) :: msg       !< why
     type(deck_type) :: deck
     type(error_type) :: error
-    type(static_result) :: res
-    real(dp) :: joints(nb + 1, 3), g(6), zero(nq)
-    integer :: nc
 
     q = 0.0_dp; lambda = 0.0_dp; angles_deg = 0.0_dp; cm = 0.0_dp; wrenches = 0.0_dp; stats = 0; gmax = 0.0_dp
     call open_deck(path, deck, stat, group, key, msg)
     if (stat /= 0) return
-    nc = deck%model%nc
-    q = deck%q0
-    call solve_static(deck%model, deck%statics, q, lambda(1:nc), res, error)
-    stats = [res%iterations, res%residual_evals, res%jacobian_evals, res%line_search_cuts, 0]
+    call equilibrium(deck, q, lambda, stats, error)
     if (error%code /= 0) then
       stat = 2
       msg = error%message
       return
     end if
+    call describe_equilibrium(deck, q, lambda, angles_deg, cm, wrenches, gmax)
+  end subroutine rc_run_static
+
+  subroutine describe_equilibrium(deck, q, lambda, angles_deg, cm, wrenches, gmax)
+    type(deck_type), intent(inout) :: deck
+    real(dp), intent(in) :: q(:), lambda(:)
+    real(dp), intent(out) :: angles_deg(:, :), cm(:, :), wrenches(12), gmax
+    real(dp) :: joints(deck%model%chain%n_bodies + 1, 3), g(6), zero(size(q))
     zero = 0.0_dp
+    gmax = 0.0_dp
     call reaction_wrenches(deck%model, 0.0_dp, q, zero, zero, lambda, wrenches)
-    if (nc > 0) then
+    if (deck%model%nc > 0) then
       call constraint_residual(deck%model, q, g)
       gmax = maxval(abs(g(1:3)))
     end if
     call fill_shape(deck, q, angles_deg, cm, joints)
-  end subroutine rc_run_static
+  end subroutine describe_equilibrium
+
+  !> Modal analysis about the deck's equilibrium: frequencies, damping, mode shapes.
+  subroutine rc_run_modal(path, nb, nq, ncd, nf, q, lambda, angles_deg, cm, wrenches, f_undamped, f_damped, &
+                          zeta, shapes, cm_shapes, stats, gmax, stat, group, key, msg)
+    character(len=*), intent(in) :: path          !< deck file
+    integer(c_int), intent(in) :: nb, nq, ncd, nf !< bodies, coordinates, max(1, nc), free coordinates nq - nc
+    real(c_double), intent(out) :: q(nq)          !< equilibrium coordinates [rad]
+    real(c_double), intent(out) :: lambda(ncd)    !< multipliers
+    real(c_double), intent(out) :: angles_deg(nb, 2) !< joint angles [deg]
+    real(c_double), intent(out) :: cm(nb, 3)      !< centres of mass [m]
+    real(c_double), intent(out) :: wrenches(12)   !< support wrenches at equilibrium
+    real(c_double), intent(out) :: f_undamped(nf) !< natural frequencies [Hz]
+    real(c_double), intent(out) :: f_damped(nf)   !< damped frequencies [Hz] (0 = overdamped)
+    real(c_double), intent(out) :: zeta(nf)       !< damping ratios
+    real(c_double), intent(out) :: shapes(nq, nf) !< mode shapes in q (mass-normalised)
+    real(c_double), intent(out) :: cm_shapes(3*nb, nf) !< mode shapes as CM displacements (x1,y1,z1,...)
+    integer(c_int), intent(out) :: stats(5)       !< equilibrium solver statistics
+    real(c_double), intent(out) :: gmax           !< max |g| position rows [m]
+    integer(c_int), intent(out) :: stat           !< 0 = ok
+    character(len=64), intent(out) :: group, key  !< where a deck error is
+    character(len=1024), intent(out) :: msg       !< why
+    type(deck_type) :: deck
+    type(error_type) :: error
+    real(dp) :: cp(nb, 3), cmm(nb, 3), ang(nb, 2), joints(nb + 1, 3), h
+    integer :: i
+
+    q = 0.0_dp; lambda = 0.0_dp; angles_deg = 0.0_dp; cm = 0.0_dp; wrenches = 0.0_dp; stats = 0; gmax = 0.0_dp
+    f_undamped = 0.0_dp; f_damped = 0.0_dp; zeta = 0.0_dp; shapes = 0.0_dp; cm_shapes = 0.0_dp
+    call open_deck(path, deck, stat, group, key, msg)
+    if (stat /= 0) return
+    call equilibrium(deck, q, lambda, stats, error)
+    if (error%code == 0) call modal_analysis(deck%model, q, lambda(1:deck%model%nc), f_undamped, f_damped, &
+                                             zeta, shapes, error)
+    if (error%code /= 0) then
+      stat = 2
+      msg = error%message
+      return
+    end if
+    call describe_equilibrium(deck, q, lambda, angles_deg, cm, wrenches, gmax)
+    ! CM displacement per unit modal coordinate, by central differences of the kinematics.
+    h = 1.0e-6_dp
+    do i = 1, nf
+      call fill_shape(deck, q + h*shapes(:, i), ang, cp, joints)
+      call fill_shape(deck, q - h*shapes(:, i), ang, cmm, joints)
+      cm_shapes(1::3, i) = (cp(:, 1) - cmm(:, 1))/(2.0_dp*h)
+      cm_shapes(2::3, i) = (cp(:, 2) - cmm(:, 2))/(2.0_dp*h)
+      cm_shapes(3::3, i) = (cp(:, 3) - cmm(:, 3))/(2.0_dp*h)
+    end do
+  end subroutine rc_run_modal
 
   !> Dynamic run with IDA; outputs at t = 0, dt_out, ..., t_end.
   subroutine rc_run_dynamic(path, nb, nq, nt, t, q, angles_deg, cm, wrenches, energy, gviol, stats, &
@@ -185,6 +286,17 @@ contains
       t(k) = min((k - 1)*deck%integrator%dt_out, deck%integrator%t_end)
     end do
     allocate (q_out(nq, nt), v_out(nq, nt), vdot(nq), lam(max(nc, 1)))
+    if (deck%start_at_equilibrium) then
+      ! Start at rest in the static equilibrium (e.g. the decay test of section 5.4).
+      call equilibrium(deck, vdot, lam, stats, error)
+      deck%q0 = vdot          ! vdot is free workspace here
+      deck%v0 = 0.0_dp
+      if (error%code /= 0) then
+        stat = 2
+        msg = 'start equilibrium: '//error%message
+        return
+      end if
+    end if
     call integrate(deck%model, deck%integrator, deck%q0, deck%v0, t, q_out, v_out, ss, error)
     stats = [ss%steps, ss%residual_evals, ss%jacobian_evals, ss%error_test_failures, ss%convergence_failures]
     if (error%code /= 0) then

@@ -232,8 +232,10 @@ contains
             call check(IDASetStopTime(mem, real(t_switch(s), c_double)), 'IDASetStopTime')
             flag = IDASolve(mem, real(t_switch(s), c_double), tret, yy, yp, IDA_NORMAL)
             call check(flag, 'IDASolve')
-            ! Restart the multistep history at the discontinuity.
+            ! Restart the multistep history at the discontinuity, and lift the stop time
+            ! (SUNDIALS 6.4 has no IDAClearStopTime).
             call check(IDAReInit(mem, tret, yy, yp), 'IDAReInit')
+            call check(IDASetStopTime(mem, real(2.0_dp*t_out(size(t_out)) + 1.0_dp, c_double)), 'IDASetStopTime')
             s = s + 1
           end if
         end if

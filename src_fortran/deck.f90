@@ -1,14 +1,15 @@
 !> Input decks: Fortran namelist groups, read, validated and turned into a model.
 !>
 !> Groups (see inputs/*.nml for commented examples and docs/model.md for meaning):
-!>   &case    name, analysis ('static' | 'dynamic')
+!>   &case    name, analysis ('static' | 'dynamic' | 'modal'), start ('shape' | 'equilibrium')
 !>   &chain   n_bodies, total_length, diameter, density | total_mass, first_body ('clamped' | 'pivot')
 !>   &shape   gamma_deg(:), beta_deg(:) joint angles of the start shape [deg],
 !>            gamma_rate_deg(:), beta_rate_deg(:) start rates [deg/s]
 !>   &springs c_gamma, c_beta [Nm/rad], d_gamma, d_beta [Nms/rad], rest_gamma_deg(:), rest_beta_deg(:)
 !>   &clamp_b active, from_start, position(3) [m], gamma_deg, beta_deg (orientation of the last body)
 !>   &loads   gravity(3), rotor_rpm, rotor_offset(3), pulse_body, pulse_force(3), pulse_start, pulse_end
-!>   &solver  t_end, dt_out, rtol, atol, atol_multiplier, h_max, max_steps, newton_tol, newton_max_iter
+!>   &solver  t_end, dt_out, rtol, atol, atol_multiplier, h_max, max_steps, newton_tol, newton_max_iter,
+!>            static_method ('newton' | 'settle'), settle_tol [rad/s]
 !> Every problem is reported with the deck, the group, the key and the reason.
 module rotorcable_deck
   use rotorcable_kinds, only: dp
@@ -21,9 +22,9 @@ module rotorcable_deck
   use rotorcable_statics, only: static_settings
   implicit none
   private
-  public :: deck_type, load_deck, ANALYSIS_STATIC, ANALYSIS_DYNAMIC
+  public :: deck_type, load_deck, ANALYSIS_STATIC, ANALYSIS_DYNAMIC, ANALYSIS_MODAL
 
-  integer, parameter :: ANALYSIS_STATIC = 1, ANALYSIS_DYNAMIC = 2
+  integer, parameter :: ANALYSIS_STATIC = 1, ANALYSIS_DYNAMIC = 2, ANALYSIS_MODAL = 3
   integer, parameter :: MAX_BODIES = 2000
   real(dp), parameter :: UNSET = -huge(1.0_dp)
   real(dp), parameter :: PI = acos(-1.0_dp), DEG = PI/180.0_dp
@@ -39,6 +40,9 @@ module rotorcable_deck
     real(dp) :: c_beta = 0.0_dp                   !< bending spring per joint [Nm/rad] (table caption)
     type(integrator_settings) :: integrator       !< IDA settings
     type(static_settings) :: statics              !< Newton settings
+    logical :: start_at_equilibrium = .false.     !< dynamic run starts from the static equilibrium
+    logical :: settle = .false.                   !< equilibrium by damped dynamic settling (thesis route)
+    real(dp) :: settle_tol = 1.0e-8_dp            !< settled when max |qdot| < settle_tol [rad/s]
   end type deck_type
 
 contains
@@ -46,6 +50,7 @@ contains
   function specs() result(s)
     type(key_spec), allocatable :: s(:)
     s = [key_spec('case', 'name', 'c'), key_spec('case', 'analysis', 'c'), key_spec('case', 'description', 'c'), &
+         key_spec('case', 'start', 'c'), &
          key_spec('chain', 'n_bodies', 'i'), key_spec('chain', 'total_length', 'r'), &
          key_spec('chain', 'diameter', 'r'), key_spec('chain', 'density', 'r'), &
          key_spec('chain', 'total_mass', 'r'), key_spec('chain', 'first_body', 'c'), &
@@ -64,7 +69,8 @@ contains
          key_spec('solver', 't_end', 'r'), key_spec('solver', 'dt_out', 'r'), key_spec('solver', 'rtol', 'r'), &
          key_spec('solver', 'atol', 'r'), key_spec('solver', 'atol_multiplier', 'r'), &
          key_spec('solver', 'h_max', 'r'), key_spec('solver', 'max_steps', 'i'), &
-         key_spec('solver', 'newton_tol', 'r'), key_spec('solver', 'newton_max_iter', 'i')]
+         key_spec('solver', 'newton_tol', 'r'), key_spec('solver', 'newton_max_iter', 'i'), &
+         key_spec('solver', 'static_method', 'c'), key_spec('solver', 'settle_tol', 'r')]
   end function specs
 
   !> Read and validate a deck.  On failure fail%failed is set with group, key and reason.
@@ -73,7 +79,7 @@ contains
     type(deck_type), intent(out) :: deck          !< validated deck
     type(scan_failure), intent(out) :: fail       !< first problem
     ! &case
-    character(len=64) :: name, analysis
+    character(len=64) :: name, analysis, start
     character(len=256) :: description
     ! &chain
     integer :: n_bodies
@@ -92,12 +98,15 @@ contains
     ! &solver
     real(dp) :: t_end, dt_out, rtol, atol, atol_multiplier, h_max, newton_tol
     integer :: max_steps, newton_max_iter
+    character(len=16) :: static_method
+    real(dp) :: settle_tol
 
-    namelist /case/ name, analysis, description
+    namelist /case/ name, analysis, description, start
     namelist /chain/ n_bodies, total_length, diameter, density, total_mass, first_body
     namelist /shape/ gamma_deg, beta_deg, gamma_rate_deg, beta_rate_deg
     namelist /springs/ c_gamma, c_beta, d_gamma, d_beta, rest_gamma_deg, rest_beta_deg
-    namelist /solver/ t_end, dt_out, rtol, atol, atol_multiplier, h_max, max_steps, newton_tol, newton_max_iter
+    namelist /solver/ t_end, dt_out, rtol, atol, atol_multiplier, h_max, max_steps, newton_tol, newton_max_iter, &
+                      static_method, settle_tol
 
     integer :: u, ios, n, j, nq, i0
     character(len=512) :: iomsg
@@ -116,16 +125,23 @@ contains
       return
     end if
 
-    name = ''; analysis = ''; description = ''
+    name = ''; analysis = ''; description = ''; start = 'shape'
     if (.not. read_group('case')) return
     deck%case_name = trim(name)
+    if (start /= 'shape' .and. start /= 'equilibrium') then
+      call set_fail('case', 'start', 'must be ''shape'' or ''equilibrium'', got '''//trim(start)//'''')
+      return
+    end if
+    deck%start_at_equilibrium = (start == 'equilibrium')
     select case (trim(analysis))
     case ('static')
       deck%analysis = ANALYSIS_STATIC
     case ('dynamic')
       deck%analysis = ANALYSIS_DYNAMIC
+    case ('modal')
+      deck%analysis = ANALYSIS_MODAL
     case default
-      call set_fail('case', 'analysis', 'must be ''static'' or ''dynamic'', got '''//trim(analysis)//'''')
+      call set_fail('case', 'analysis', 'must be ''static'', ''dynamic'' or ''modal'', got '''//trim(analysis)//'''')
       return
     end select
 
@@ -201,6 +217,7 @@ contains
 
     t_end = 1.0_dp; dt_out = 1.0e-2_dp; rtol = 1.0e-8_dp; atol = 1.0e-10_dp; atol_multiplier = 1.0_dp
     h_max = 0.0_dp; max_steps = 500000; newton_tol = 1.0e-10_dp; newton_max_iter = 200
+    static_method = 'newton'; settle_tol = 1.0e-8_dp
     if (.not. read_group('solver', optional_group=.true.)) return
     if (.not. positive('solver', 't_end', t_end)) return
     if (.not. positive('solver', 'dt_out', dt_out)) return
@@ -209,6 +226,11 @@ contains
     if (.not. positive('solver', 'atol_multiplier', atol_multiplier)) return
     if (.not. nonnegative('solver', 'h_max', h_max)) return
     if (.not. positive('solver', 'newton_tol', newton_tol)) return
+    if (static_method /= 'newton' .and. static_method /= 'settle') then
+      call set_fail('solver', 'static_method', 'must be ''newton'' or ''settle'', got '''//trim(static_method)//'''')
+      return
+    end if
+    if (.not. positive('solver', 'settle_tol', settle_tol)) return
     if (max_steps < 1) then
       call set_fail('solver', 'max_steps', 'must be positive')
       return
@@ -290,6 +312,8 @@ contains
     deck%integrator%max_steps = max_steps
     deck%statics%tol_force = newton_tol
     deck%statics%max_iterations = newton_max_iter
+    deck%settle = (static_method == 'settle')
+    deck%settle_tol = settle_tol
 
   contains
 

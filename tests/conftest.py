@@ -20,33 +20,16 @@ def thesis(name: str) -> dict:
 
 def edit_deck(src: Path, dst: Path, group: str, assignments: dict | None = None,
               drop_group: bool = False, raw: str | None = None) -> Path:
-    """Copy a deck, replacing keys inside one namelist group (or dropping the group).
-
-    ``assignments`` maps key -> value text; keys already present are replaced, new ones
-    appended to the group.  ``raw`` is appended verbatim inside the group.
-    """
-    text = src.read_text()
-    pat = re.compile(rf"(&{group}\b)(.*?)(\n\s*/)", re.S | re.I)
-    m = pat.search(text)
+    """Copy a deck with keys of one group replaced (pydriver.study.override_deck), or with
+    the group dropped."""
+    from pydriver.study import override_deck
     if drop_group:
+        text = Path(src).read_text()
+        m = re.search(rf"&{group}\b.*?\n\s*/", text, re.S | re.I)
         assert m, f"group {group} not in {src}"
-        text = text[:m.start()] + text[m.end():]
-    else:
-        if m is None:
-            text += f"\n&{group}\n/\n"
-            m = pat.search(text)
-        body = m.group(2)
-        for key, value in (assignments or {}).items():
-            kpat = re.compile(rf"^\s*{key}\s*=.*$", re.M | re.I)
-            if kpat.search(body):
-                body = kpat.sub(f"  {key} = {value}", body)
-            else:
-                body += f"\n  {key} = {value}"
-        if raw:
-            body += "\n  " + raw
-        text = text[:m.start()] + m.group(1) + body + m.group(3) + text[m.end():]
-    dst.write_text(text)
-    return dst
+        Path(dst).write_text(text[:m.start()] + text[m.end():])
+        return Path(dst)
+    return override_deck(src, dst, {group: assignments or {}})
 
 
 @pytest.fixture

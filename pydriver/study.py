@@ -1,0 +1,105 @@
+"""Parameter studies built on run_deck: frequency against c_y (thesis Figure 5.9), the c_y
+where the first frequency meets the flap frequency, and discretisation refinement.
+
+Each study writes modified copies of a deck (namelist keys replaced, nothing else touched)
+into a temporary directory and runs them; results come back as numpy arrays.
+"""
+
+from __future__ import annotations
+
+import re
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from pydriver.deck import run_deck
+
+
+def override_deck(src, dst, changes: dict) -> Path:
+    """Copy deck ``src`` to ``dst`` with ``changes = {group: {key: value_text}}`` applied.
+
+    Keys present in the group are replaced (whole assignment line), missing keys appended;
+    a missing group is appended.  Value texts are namelist syntax (e.g. ``"35.0"``,
+    ``"90.0, 10*0.0"``, ``"'modal'"``).
+    """
+    text = Path(src).read_text()
+    for group, keys in changes.items():
+        pat = re.compile(rf"(&{group}\b)(.*?)(\n\s*/)", re.S | re.I)
+        m = pat.search(text)
+        if m is None:
+            text += f"\n&{group}\n/\n"
+            m = pat.search(text)
+        body = m.group(2)
+        for key, value in keys.items():
+            kpat = re.compile(rf"^[ \t]*{key}[ \t]*=.*$", re.M | re.I)
+            if kpat.search(body):
+                body = kpat.sub(lambda _m: f"  {key} = {value}", body)
+            else:
+                body += f"\n  {key} = {value}"
+        text = text[:m.start()] + m.group(1) + body + m.group(3) + text[m.end():]
+    Path(dst).write_text(text)
+    return Path(dst)
+
+
+def _modal(deck, changes, tmp):
+    p = override_deck(deck, Path(tmp) / f"d{len(list(Path(tmp).iterdir()))}.nml",
+                      {"case": {"analysis": "'modal'"}, **changes})
+    return run_deck(p).summary
+
+
+def frequency_vs_cy(deck, c_values) -> dict:
+    """First undamped/damped frequency and damping ratio of a deck for each bending spring c_y."""
+    out = {"c_y": np.asarray(c_values, float), "f_undamped_hz": [], "f_damped_hz": [], "zeta": []}
+    with tempfile.TemporaryDirectory() as tmp:
+        for c in out["c_y"]:
+            s = _modal(deck, {"springs": {"c_beta": repr(float(c))}}, tmp)
+            out["f_undamped_hz"].append(s["frequencies_hz"][0])
+            out["f_damped_hz"].append(s["damped_frequencies_hz"][0])
+            out["zeta"].append(s["damping_ratios"][0])
+    return {k: np.asarray(v, float) for k, v in out.items()}
+
+
+def cy_at_frequency(deck, f_target: float, lo: float, hi: float, key="f_damped_hz",
+                    tol: float = 1e-4) -> float:
+    """c_y where the first frequency equals ``f_target``, by bisection on modal analyses.
+
+    The first frequency rises monotonically with c_y (thesis Figure 5.9); [lo, hi] must
+    bracket the target.
+    """
+    def f(c):
+        return frequency_vs_cy(deck, [c])[key][0] - f_target
+    f_lo, f_hi = f(lo), f(hi)
+    if f_lo * f_hi > 0:
+        raise ValueError(f"c_y in [{lo}, {hi}] does not bracket {f_target} Hz")
+    while hi - lo > tol * max(1.0, lo):
+        mid = 0.5 * (lo + hi)
+        f_mid = f(mid)
+        if f_mid * f_lo <= 0:
+            hi = mid
+        else:
+            lo, f_lo = mid, f_mid
+    return 0.5 * (lo + hi)
+
+
+def refined_changes(n: int, n0: int, c_beta0: float, c_gamma0: float, d_beta0: float,
+                    d_gamma0: float, first_angles, bend0_deg: float, twist2_deg: float) -> dict:
+    """Deck changes that refine a cable from n0 to n bodies at equal bending stiffness.
+
+    Eq. 5.2: c_y = c_yj / j, so the per-joint spring scales with n/n0 (EI = c l); the joint
+    dampers scale the same way so the cable's damping per length stays.  The start shape
+    keeps the total bend: (n - 1) joints of bend0 (n0 - 1)/(n - 1) each.
+    """
+    r = n / n0
+    bend = bend0_deg * (n0 - 1) / (n - 1)
+    return {"chain": {"n_bodies": str(n)},
+            "shape": {"gamma_deg": f"{first_angles[0]}, {twist2_deg}, {n - 2}*0.0",
+                      "beta_deg": f"{first_angles[1]}, {n - 1}*{bend}"},
+            "springs": {"c_beta": repr(c_beta0 * r), "c_gamma": repr(c_gamma0 * r),
+                        "d_beta": repr(d_beta0 * r), "d_gamma": repr(d_gamma0 * r)}}
+
+
+def observed_order(h, values) -> float:
+    """Observed convergence order from the three finest of a sequence halving h."""
+    f1, f2, f3 = values[-3:]
+    return float(np.log(abs((f1 - f2) / (f2 - f3))) / np.log(h[-3] / h[-2]))

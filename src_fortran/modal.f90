@@ -1,0 +1,146 @@
+!> Modal analysis about an equilibrium of the constrained chain.
+!>
+!> Linearising M qdd = k + G^T lambda about (q*, lambda*) on the constraint manifold,
+!> q = q* + N z with N an orthonormal null-space basis of G(q*), gives
+!>   M_r zdd + D_r zd + K_r z = 0,  M_r = N^T M N,  D_r = N^T D N,  K_r = N^T K N,
+!> where K = d(-k - G^T lambda*)/dq is the tangent stiffness including the constraint
+!> curvature weighted by lambda* (rotorcable_statics) and D = d(-k)/dqdot.
+!> Undamped modes: K_r phi = w^2 M_r phi (LAPACK dsygv).  Damped modes: the first-order
+!> pencil [0 I; -K_r -D_r] - s [I 0; 0 M_r] (LAPACK dggev); every undamped mode is paired
+!> with the damped eigenvalue whose displacement part matches it best (modal assurance
+!> criterion, mass weighted).  Overdamped modes (real s) get f_damped = 0 and the modal
+!> damping ratio phi^T D_r phi / (2 w).
+module rotorcable_modal
+  use rotorcable_kinds, only: dp
+  use rotorcable_errors, only: error_type, fatal_error
+  use rotorcable_model, only: model_type, mass_matrix, constraint_jacobian
+  use rotorcable_statics, only: tangent_stiffness, damping_matrix
+  use rotorcable_linalg, only: null_space
+  implicit none
+  private
+  public :: modal_analysis
+
+  interface
+    subroutine dsygv(itype, jobz, uplo, n, a, lda, b, ldb, w, work, lwork, info)
+      import :: dp
+      integer, intent(in) :: itype, n, lda, ldb, lwork
+      character, intent(in) :: jobz, uplo
+      real(dp), intent(inout) :: a(lda, *), b(ldb, *)
+      real(dp), intent(out) :: w(*), work(*)
+      integer, intent(out) :: info
+    end subroutine dsygv
+    subroutine dggev(jobvl, jobvr, n, a, lda, b, ldb, alphar, alphai, beta, vl, ldvl, vr, ldvr, &
+                     work, lwork, info)
+      import :: dp
+      character, intent(in) :: jobvl, jobvr
+      integer, intent(in) :: n, lda, ldb, ldvl, ldvr, lwork
+      real(dp), intent(inout) :: a(lda, *), b(ldb, *)
+      real(dp), intent(out) :: alphar(*), alphai(*), beta(*), vl(ldvl, *), vr(ldvr, *), work(*)
+      integer, intent(out) :: info
+    end subroutine dggev
+  end interface
+
+  real(dp), parameter :: TWO_PI = 2.0_dp*acos(-1.0_dp)
+
+contains
+
+  !> Natural frequencies, damped frequencies, damping ratios and mode shapes.
+  subroutine modal_analysis(model, q, lambda, f_undamped, f_damped, zeta, shapes, error)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: q(:)              !< equilibrium coordinates [rad]
+    real(dp), intent(in) :: lambda(:)         !< equilibrium multipliers
+    real(dp), intent(out) :: f_undamped(:)    !< (nf) undamped natural frequencies [Hz], ascending
+    real(dp), intent(out) :: f_damped(:)      !< (nf) damped frequencies [Hz] (0 = overdamped)
+    real(dp), intent(out) :: zeta(:)          !< (nf) damping ratios
+    real(dp), intent(out) :: shapes(:, :)     !< (nq,nf) mode shapes in q, mass-normalised
+    type(error_type), intent(inout) :: error  !< status
+    integer :: nq, nc, nf, info, i, k, best, lwork, n_eval
+    real(dp), allocatable :: basis(:, :), m_full(:, :), k_full(:, :), d_full(:, :), g_jac(:, :)
+    real(dp), allocatable :: m_r(:, :), k_r(:, :), d_r(:, :), a(:, :), b(:, :), w(:), work(:)
+    real(dp), allocatable :: ar(:), ai(:), be(:), vr(:, :), vl(:, :), z(:, :)
+    real(dp) :: wq(1), mac, mac_best, omega, s_re, s_im, xr(size(q)), xi(size(q)), num_r, num_i, den_x
+
+    nq = model%nq; nc = model%nc; nf = nq - nc
+    allocate (basis(nq, nf), m_full(nq, nq), k_full(nq, nq), d_full(nq, nq), g_jac(nc, nq))
+    if (nc > 0) call constraint_jacobian(model, q, g_jac)
+    call null_space(g_jac, basis, info)
+    call mass_matrix(model, q, m_full)
+    n_eval = 0
+    call tangent_stiffness(model, q, lambda, k_full, n_eval)
+    call damping_matrix(model, q, lambda, d_full)
+    m_r = matmul(transpose(basis), matmul(m_full, basis))
+    k_r = matmul(transpose(basis), matmul(k_full, basis))
+    d_r = matmul(transpose(basis), matmul(d_full, basis))
+    m_r = 0.5_dp*(m_r + transpose(m_r))
+    k_r = 0.5_dp*(k_r + transpose(k_r))
+    d_r = 0.5_dp*(d_r + transpose(d_r))
+
+    ! Undamped: K_r phi = w^2 M_r phi.
+    a = k_r; b = m_r
+    allocate (w(nf))
+    call dsygv(1, 'V', 'U', nf, a, nf, b, nf, w, wq, -1, info)
+    lwork = int(wq(1)); allocate (work(lwork))
+    call dsygv(1, 'V', 'U', nf, a, nf, b, nf, w, work, lwork, info)
+    if (info /= 0) then
+      call fatal_error(error, 'modal analysis: generalized symmetric eigenproblem failed (dsygv)')
+      return
+    end if
+    if (w(1) < 0.0_dp) then
+      call fatal_error(error, 'modal analysis: the equilibrium is unstable (negative stiffness eigenvalue)')
+      return
+    end if
+    z = a                                     ! M_r-normalised eigenvectors, columns
+    f_undamped = sqrt(w)/TWO_PI
+    shapes = matmul(basis, z)
+
+    ! Damped: first-order pencil of size 2 nf.
+    deallocate (a, b, work)
+    allocate (a(2*nf, 2*nf), b(2*nf, 2*nf), ar(2*nf), ai(2*nf), be(2*nf), vr(2*nf, 2*nf), vl(1, 1))
+    a = 0.0_dp; b = 0.0_dp
+    do i = 1, nf
+      a(i, nf + i) = 1.0_dp
+      b(i, i) = 1.0_dp
+    end do
+    a(nf + 1:, 1:nf) = -k_r
+    a(nf + 1:, nf + 1:) = -d_r
+    b(nf + 1:, nf + 1:) = m_r
+    call dggev('N', 'V', 2*nf, a, 2*nf, b, 2*nf, ar, ai, be, vl, 1, vr, 2*nf, wq, -1, info)
+    lwork = int(wq(1)); allocate (work(lwork))
+    call dggev('N', 'V', 2*nf, a, 2*nf, b, 2*nf, ar, ai, be, vl, 1, vr, 2*nf, work, lwork, info)
+    if (info /= 0) then
+      call fatal_error(error, 'modal analysis: damped eigenproblem failed (dggev)')
+      return
+    end if
+    do i = 1, nf
+      omega = sqrt(w(i))
+      best = 0; mac_best = -1.0_dp
+      do k = 1, 2*nf
+        if (be(k) == 0.0_dp) cycle
+        ! Displacement part of eigenvector k (complex pairs stored as re, im columns).
+        if (ai(k) > 0.0_dp) then
+          xr = matmul(basis, vr(1:nf, k)); xi = matmul(basis, vr(1:nf, k + 1))
+        else if (ai(k) < 0.0_dp) then
+          cycle
+        else
+          xr = matmul(basis, vr(1:nf, k)); xi = 0.0_dp
+        end if
+        num_r = dot_product(xr, matmul(m_full, shapes(:, i)))
+        num_i = dot_product(xi, matmul(m_full, shapes(:, i)))
+        den_x = dot_product(xr, matmul(m_full, xr)) + dot_product(xi, matmul(m_full, xi))
+        mac = (num_r**2 + num_i**2)/max(den_x, tiny(1.0_dp))
+        if (mac > mac_best) then
+          mac_best = mac; best = k
+        end if
+      end do
+      s_re = ar(best)/be(best); s_im = ai(best)/be(best)
+      if (s_im > 0.0_dp) then
+        f_damped(i) = s_im/TWO_PI
+        zeta(i) = -s_re/sqrt(s_re**2 + s_im**2)
+      else
+        f_damped(i) = 0.0_dp
+        zeta(i) = dot_product(z(:, i), matmul(d_r, z(:, i)))/(2.0_dp*max(omega, tiny(1.0_dp)))
+      end if
+    end do
+  end subroutine modal_analysis
+
+end module rotorcable_modal
