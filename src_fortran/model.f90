@@ -10,6 +10,7 @@ module rotorcable_model
   use rotorcable_constraints, only: clamp_type, clamp_rows, clamp_residual, clamp_jacobian, &
                                     clamp_bias, clamp_velocity, clamp_wrench, clamp_closure
   use rotorcable_linalg, only: solve_dense, solve_least_norm
+  use rotorcable_rotations, only: rotation_log, rotation_exp
   implicit none
   private
   public :: model_type, model_init, eom_residual, generalized_forces, mass_matrix, &
@@ -192,25 +193,71 @@ contains
   end function total_energy
 
   !> Project q onto g(q) = 0: the smallest change of the deck's shape that closes the chain.
-  !> Levenberg-Marquardt on the closure residual (tip - p_B, E - I), which has no spurious
-  !> half-turn roots, with minimum-norm steps (LAPACK dgelsd on [J; sqrt(mu) I]); the damping
-  !> keeps far starts on the branch nearest the deck's shape.  Returns the final max |g|.
+  !> Levenberg-Marquardt on the closure residual (tip - p_B, (E - I) l_s), which has no
+  !> spurious half-turn roots, with minimum-norm steps (LAPACK dgelsd on [J; sqrt(mu) I]).
+  !> If the direct closure stalls (a far start), the clamp pose is approached by
+  !> continuation: the target moves from the start shape's tip pose to p_B, R_B in 8, 32 or
+  !> 128 steps (position linearly, orientation along the geodesic R_0 exp(s log(R_0^T R_B)))
+  !> and every step is closed from the previous one.  Returns the final max |g|.
   function project_positions(model, q) result(gmax)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(inout) :: q(:)           !< coordinates, projected in place
     real(dp) :: gmax
-    real(dp) :: r(12), r_try(12), r_jac(12, model%nq), a(12 + model%nq, model%nq), b(12 + model%nq)
-    real(dp) :: dq(model%nq), q_try(model%nq), mu, g(max(model%nc, 1))
-    integer :: it, info, i, nq
+    real(dp) :: q_start(model%nq), p_b(3), r_b(3, 3), p_0(3), r_0(3, 3), w(3), g(max(model%nc, 1)), s, gm
+    integer :: n_steps(3), i, k, n
     gmax = 0.0_dp
     if (model%nc == 0) return
+    n = model%chain%n_bodies
+    q_start = q
+    gmax = close_chain(model, q)
+    if (gmax <= 1.0e-10_dp) return
+    p_b = model%clamp%position
+    r_b = model%clamp%rotation
+    call chain_positions(model%chain, q_start, model%st)
+    p_0 = model%st%joint_point(:, n + 1)
+    r_0 = model%st%rot(:, :, n)
+    w = rotation_log(matmul(transpose(r_0), r_b))
+    n_steps = [8, 32, 128]
+    do i = 1, size(n_steps)
+      q = q_start
+      do k = 1, n_steps(i)
+        s = real(k, dp)/n_steps(i)
+        model%clamp%position = p_0 + s*(p_b - p_0)
+        model%clamp%rotation = matmul(r_0, rotation_exp(s*w))
+        gm = close_chain(model, q)
+        if (gm > 1.0e-8_dp) exit
+      end do
+      model%clamp%position = p_b
+      model%clamp%rotation = r_b
+      if (k > n_steps(i)) then
+        gmax = close_chain(model, q)
+        if (gmax <= 1.0e-10_dp) return
+      end if
+    end do
+    call constraint_residual(model, q, g)
+    gmax = max(maxval(abs(g)), 1.0_dp)
+  end function project_positions
+
+  !> Levenberg-Marquardt closure onto the current clamp pose (see project_positions).
+  function close_chain(model, q) result(gmax)
+    type(model_type), intent(inout) :: model
+    real(dp), intent(inout) :: q(:)
+    real(dp) :: gmax
+    real(dp) :: r(12), r_try(12), r_jac(12, model%nq), a(12 + model%nq, model%nq), b(12 + model%nq)
+    real(dp) :: dq(model%nq), q_try(model%nq), mu, g(max(model%nc, 1)), l_s
+    integer :: it, info, i, nq
     nq = model%nq
+    ! Orientation rows weighted by a length so that metres and radians balance.
+    l_s = 0.25_dp*sum(model%chain%length)
     mu = 0.0_dp
+    info = 0
     call closure(q, r)
-    do it = 1, 500
+    do it = 1, 300
       if (maxval(abs(r)) < 1.0e-14_dp) exit
       call chain_positions(model%chain, q, model%st)
       call clamp_closure(model%chain, model%clamp, model%st, r, r_jac)
+      r(4:12) = l_s*r(4:12)
+      r_jac(4:12, :) = l_s*r_jac(4:12, :)
       do
         a = 0.0_dp
         a(1:12, :) = r_jac
@@ -231,9 +278,8 @@ contains
       mu = 0.1_dp*mu
     end do
     call constraint_residual(model, q, g)
-    gmax = maxval(abs(g))
     ! A flipped end orientation would also zero g: require E = I as well.
-    gmax = max(gmax, maxval(abs(r(4:12))))
+    gmax = max(maxval(abs(g)), maxval(abs(r(4:12)))/l_s)
   contains
     subroutine closure(qq, rr)
       real(dp), intent(in) :: qq(:)
@@ -241,8 +287,9 @@ contains
       real(dp) :: jj(12, model%nq)
       call chain_positions(model%chain, qq, model%st)
       call clamp_closure(model%chain, model%clamp, model%st, rr, jj)
+      rr(4:12) = l_s*rr(4:12)
     end subroutine closure
-  end function project_positions
+  end function close_chain
 
   !> Project v onto G(q) v = 0 (minimum-norm change).
   subroutine project_velocities(model, q, v)

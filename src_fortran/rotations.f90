@@ -7,7 +7,7 @@ module rotorcable_rotations
   use rotorcable_kinds, only: dp
   implicit none
   private
-  public :: rot_y, rot_z, cross, skew, vee, identity3
+  public :: rot_y, rot_z, cross, skew, vee, identity3, rotation_log, rotation_exp
 
 contains
 
@@ -57,5 +57,40 @@ contains
     m = 0.0_dp
     m(1, 1) = 1.0_dp; m(2, 2) = 1.0_dp; m(3, 3) = 1.0_dp
   end function identity3
+
+  !> Rotation vector (axis x angle) of a rotation matrix, angle in [0, pi] (inverse Rodrigues).
+  pure function rotation_log(r) result(w)
+    real(dp), intent(in) :: r(3, 3)    !< rotation matrix
+    real(dp) :: w(3)
+    real(dp) :: c, angle, s, b(3, 3)
+    integer :: k
+    c = max(-1.0_dp, min(1.0_dp, 0.5_dp*(r(1, 1) + r(2, 2) + r(3, 3) - 1.0_dp)))
+    angle = acos(c)
+    s = sin(angle)
+    if (angle < 1.0e-8_dp) then
+      w = 0.5_dp*vee(r - transpose(r))
+    else if (s > 1.0e-6_dp) then
+      w = angle/(2.0_dp*s)*vee(r - transpose(r))
+    else
+      ! Near a half turn: axis from the symmetric part, R + I = 2 u u^T.
+      b = 0.5_dp*(r + identity3())
+      k = maxloc([b(1, 1), b(2, 2), b(3, 3)], dim=1)
+      w = b(:, k)/sqrt(max(b(k, k), tiny(1.0_dp)))*angle
+    end if
+  end function rotation_log
+
+  !> Rotation matrix of a rotation vector (Rodrigues' formula).
+  pure function rotation_exp(w) result(r)
+    real(dp), intent(in) :: w(3)       !< rotation vector [rad]
+    real(dp) :: r(3, 3)
+    real(dp) :: angle, k(3, 3)
+    angle = norm2(w)
+    if (angle < 1.0e-12_dp) then
+      r = identity3() + skew(w)
+      return
+    end if
+    k = skew(w/angle)
+    r = identity3() + sin(angle)*k + (1.0_dp - cos(angle))*matmul(k, k)
+  end function rotation_exp
 
 end module rotorcable_rotations
