@@ -7,7 +7,8 @@
 !>            gamma_rate_deg(:), beta_rate_deg(:) start rates [deg/s]
 !>   &springs c_gamma, c_beta [Nm/rad], d_gamma, d_beta [Nms/rad], rest_gamma_deg(:), rest_beta_deg(:)
 !>   &clamp_b active, from_start, position(3) [m], gamma_deg, beta_deg (orientation of the last body)
-!>   &loads   gravity(3), rotor_rpm, rotor_offset(3), pulse_body, pulse_force(3), pulse_start, pulse_end
+!>   &loads   gravity(3), rotor_rpm, rotor_offset(3), pulse_body, pulse_force(3), pulse_start, pulse_end,
+!>            tip_force(3) (open chains)
 !>   &solver  t_end, dt_out, rtol, atol, atol_multiplier, h_max, max_steps, newton_tol, newton_max_iter,
 !>            static_method ('newton' | 'settle'), settle_tol [rad/s]
 !> Every problem is reported with the deck, the group, the key and the reason.
@@ -65,7 +66,7 @@ contains
          key_spec('loads', 'gravity', 'r'), key_spec('loads', 'rotor_rpm', 'r'), &
          key_spec('loads', 'rotor_offset', 'r'), key_spec('loads', 'pulse_body', 'i'), &
          key_spec('loads', 'pulse_force', 'r'), key_spec('loads', 'pulse_start', 'r'), &
-         key_spec('loads', 'pulse_end', 'r'), &
+         key_spec('loads', 'pulse_end', 'r'), key_spec('loads', 'tip_force', 'r'), &
          key_spec('solver', 't_end', 'r'), key_spec('solver', 'dt_out', 'r'), key_spec('solver', 'rtol', 'r'), &
          key_spec('solver', 'atol', 'r'), key_spec('solver', 'atol_multiplier', 'r'), &
          key_spec('solver', 'h_max', 'r'), key_spec('solver', 'max_steps', 'i'), &
@@ -93,7 +94,7 @@ contains
     logical :: active, from_start
     real(dp) :: position(3), clamp_gamma, clamp_beta
     ! &loads
-    real(dp) :: gravity(3), rotor_rpm, rotor_offset(3), pulse_force(3), pulse_start, pulse_end
+    real(dp) :: gravity(3), rotor_rpm, rotor_offset(3), pulse_force(3), pulse_start, pulse_end, tip_force(3)
     integer :: pulse_body
     ! &solver
     real(dp) :: t_end, dt_out, rtol, atol, atol_multiplier, h_max, newton_tol
@@ -204,7 +205,7 @@ contains
     if (.not. read_clamp()) return
 
     gravity = [0.0_dp, 0.0_dp, -9.81_dp]; rotor_rpm = 0.0_dp; rotor_offset = 0.0_dp
-    pulse_body = 0; pulse_force = 0.0_dp; pulse_start = 0.0_dp; pulse_end = 0.0_dp
+    pulse_body = 0; pulse_force = 0.0_dp; pulse_start = 0.0_dp; pulse_end = 0.0_dp; tip_force = 0.0_dp
     if (.not. read_loads()) return
     if (pulse_body < 0 .or. pulse_body > n) then
       call set_fail('loads', 'pulse_body', 'must be 0 (no pulse) or a body index 1..'//itoa(n))
@@ -263,6 +264,11 @@ contains
     deck%model%loads%pulse_force = pulse_force
     deck%model%loads%pulse_start = pulse_start
     deck%model%loads%pulse_end = pulse_end
+    if (active .and. any(tip_force /= 0.0_dp)) then
+      call set_fail('loads', 'tip_force', 'a tip force needs a free end (clamp_b active = .false.)')
+      return
+    end if
+    deck%model%loads%tip_force = tip_force
     deck%model%clamp%active = active
 
     if (active) then
@@ -347,7 +353,7 @@ contains
     end function read_clamp
 
     logical function read_loads() result(ok)
-      namelist /loads/ gravity, rotor_rpm, rotor_offset, pulse_body, pulse_force, pulse_start, pulse_end
+      namelist /loads/ gravity, rotor_rpm, rotor_offset, pulse_body, pulse_force, pulse_start, pulse_end, tip_force
       rewind (u)
       read (u, nml=loads, iostat=ios, iomsg=iomsg)
       ok = check_read('loads', .true.)

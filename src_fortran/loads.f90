@@ -18,6 +18,7 @@ module rotorcable_loads
     real(dp) :: pulse_force(3) = 0.0_dp       !< pulse force at the body's CM [N]
     real(dp) :: pulse_start = 0.0_dp          !< pulse start time [s]
     real(dp) :: pulse_end = 0.0_dp            !< pulse end time [s]
+    real(dp) :: tip_force(3) = 0.0_dp         !< constant force at the free tip P_{n+1} [N] (open chains)
   end type load_type
 
 contains

@@ -54,7 +54,8 @@ contains
     call chain_positions(model%chain, q, model%st)
     call chain_motion(model%chain, v, vdot, model%st)
     call body_forces(model%chain, model%loads, model%st%cm, t, model%force)
-    f_b = 0.0_dp
+    ! The tip carries the clamp wrench (closed chain) or an applied tip force (open chain).
+    f_b = model%loads%tip_force
     m_b = 0.0_dp
     if (model%nc > 0) call clamp_wrench(model%clamp, model%st, lambda(1:6), f_b, m_b)
     call inverse_dynamics(model%chain, model%st, model%force, f_b, m_b, res, f_a, m_a)
@@ -185,7 +186,8 @@ contains
     integer :: j
     call chain_positions(model%chain, q, model%st)
     call chain_motion(model%chain, v, 0.0_dp*v, model%st)
-    e = potential_energy(model%chain, model%loads, q, model%st%cm)
+    e = potential_energy(model%chain, model%loads, q, model%st%cm) &
+        - dot_product(model%loads%tip_force, model%st%joint_point(:, model%chain%n_bodies + 1))
     do j = 1, model%chain%n_bodies
       e = e + 0.5_dp*model%chain%mass(j)*dot_product(model%st%vel_cm(:, j), model%st%vel_cm(:, j)) &
           + 0.5_dp*dot_product(model%st%omega(:, j), world_inertia_times(model%chain, model%st, j, model%st%omega(:, j)))
