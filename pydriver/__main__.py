@@ -17,7 +17,16 @@ def main(argv=None) -> int:
     run.add_argument("decks", nargs="+", help="namelist deck(s)")
     run.add_argument("--out", help="output directory (default results/<deck stem>/; one deck only)")
     run.add_argument("--plots", action="store_true", help="also write PNG plots (matplotlib)")
+    study = sub.add_parser("study", help="UH-60 studies: figures 5.6/5.12, 5.9 and refinement")
+    study.add_argument("name", choices=["shapes", "cy-sweep", "refine"],
+                       help="shapes: rest vs hover plots; cy-sweep: frequency against c_y and the "
+                            "flap crossing; refine: first frequency for n = 11, 22, 44, 88")
+    study.add_argument("--out", default="results/studies", help="output directory")
     args = parser.parse_args(argv)
+    if args.command == "study":
+        from pydriver.study import run_study
+        print(run_study(args.name, Path(args.out)))
+        return 0
     if args.out and len(args.decks) > 1:
         parser.error("--out takes one deck")
     status = 0

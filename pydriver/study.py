@@ -103,3 +103,47 @@ def observed_order(h, values) -> float:
     """Observed convergence order from the three finest of a sequence halving h."""
     f1, f2, f3 = values[-3:]
     return float(np.log(abs((f1 - f2) / (f2 - f3))) / np.log(h[-3] / h[-2]))
+
+
+def run_study(name: str, out: Path, inputs: Path = Path("inputs")) -> str:
+    """Run a named study and write its CSV/JSON/PNG files into ``out``; returns a summary line."""
+    import json
+    from pydriver.plots import plot_frequency_vs_cy, plot_shapes
+    out.mkdir(parents=True, exist_ok=True)
+    if name == "shapes":
+        for part in (1, 2):
+            tables = {label: run_deck(inputs / f"uh60_part{part}{suffix}.nml").table
+                      for label, suffix in (("rest", ""), ("hover 260 rpm", "_hover"))}
+            plot_shapes(tables, out / f"uh60_part{part}_rest_vs_hover.png",
+                        f"UH-60 cable part {part}: rest vs hover (thesis Figures 5.6/5.12)")
+        return f"wrote {out}/uh60_part1_rest_vs_hover.png, uh60_part2_rest_vs_hover.png"
+    deck = inputs / "uh60_part2_modal.nml"
+    if name == "cy-sweep":
+        c = np.r_[1.0, np.arange(2.0, 71.0, 2.0)]
+        res = frequency_vs_cy(deck, c)
+        c_cross = cy_at_frequency(deck, 4.33, 0.5, 5.0)
+        rows = ["c_y_Nm_per_rad,f_undamped_hz,f_damped_hz,zeta"]
+        rows += [f"{a!r},{b!r},{d!r},{z!r}" for a, b, d, z in
+                 zip(res["c_y"], res["f_undamped_hz"], res["f_damped_hz"], res["zeta"])]
+        (out / "frequency_vs_cy.csv").write_text("\n".join(rows) + "\n")
+        (out / "flap_crossing.json").write_text(json.dumps(
+            {"f_flap_hz": 4.33, "c_y_Nm_per_rad": c_cross,
+             "thesis_reading_Nm_per_rad": 8.0}, indent=2) + "\n")
+        plot_frequency_vs_cy(res, out / "frequency_vs_cy.png", 4.33, c_cross)
+        return f"first frequency meets 4.33 Hz at c_y = {c_cross:.3f} Nm/rad; wrote {out}"
+    if name == "refine":
+        ns = [11, 22, 44, 88]
+        f_u, f_d = [], []
+        with tempfile.TemporaryDirectory() as tmp:
+            for n in ns:
+                p = override_deck(deck, Path(tmp) / f"n{n}.nml",
+                                  refined_changes(n, 11, 35.531, 1e-4, 0.05, 1e-4, (90.0, 70.0), 12.0, 90.0))
+                s = run_deck(p).summary
+                f_u.append(s["frequencies_hz"][0])
+                f_d.append(s["damped_frequencies_hz"][0])
+        order = observed_order(1.0 / np.array(ns), f_u)
+        (out / "refinement.json").write_text(json.dumps(
+            {"n_bodies": ns, "f_undamped_hz": f_u, "f_damped_hz": f_d,
+             "observed_order_undamped": order}, indent=2) + "\n")
+        return f"n = {ns}: f1 = {np.round(f_u, 3)} Hz, observed order {order:.2f}; wrote {out}"
+    raise ValueError(f"unknown study {name!r}")

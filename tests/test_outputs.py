@@ -56,3 +56,15 @@ def test_plots_are_written(tmp_path):
     pytest.importorskip("matplotlib")
     pydriver.run_deck(INPUTS / "six_link_static.nml", out=tmp_path, plots=True)
     assert (tmp_path / "shape.png").stat().st_size > 1000
+
+
+def test_study_plots_and_decay_plot(tmp_path):
+    pytest.importorskip("matplotlib")
+    from pydriver.study import run_study
+    run_study("shapes", tmp_path, inputs=INPUTS)
+    for part in (1, 2):
+        assert (tmp_path / f"uh60_part{part}_rest_vs_hover.png").stat().st_size > 10000
+    res = pydriver.run_deck(INPUTS / "uh60_part2_decay.nml", out=tmp_path / "decay", plots=True)
+    assert (tmp_path / "decay" / "decay.png").stat().st_size > 10000
+    assert json.loads((tmp_path / "decay" / "summary.json").read_text())["decay"]["f_damped_hz"] == \
+        pytest.approx(res.summary["decay"]["f_damped_hz"])
