@@ -16,6 +16,7 @@ module rotorcable_dae_integrator
   use rotorcable_errors, only: error_type, fatal_error
   use rotorcable_model, only: model_type, eom_residual, constraint_residual, constraint_jacobian, &
                               solve_accelerations, project_positions, project_velocities
+  use rotorcable_constraints, only: clamp_jacobian, clamp_residual
   use rotorcable_ida_binding
   implicit none
   private
@@ -73,14 +74,14 @@ contains
                                     '(dependent constraints or zero mass)')
   end subroutine consistent_start
 
-  !> GGL residual for IDA.  Returns 0 (success); never stops.
+  !> GGL residual for IDA.  Returns 0 (success); never stops.  One kinematic pass serves
+  !> the inverse dynamics, g and G (the frames of q are still current after eom_residual).
   integer(c_int) function ggl_residual(t, yy, yp, rr, udata) bind(C)
     real(c_double), value :: t
     type(c_ptr), value :: yy, yp, rr, udata
     type(ida_user_data), pointer :: ud
     real(c_double), pointer :: y(:), yd(:), r(:)
     integer :: nq, nc, n
-    real(dp), allocatable :: g_jac(:, :)
 
     call c_f_pointer(udata, ud)
     nq = ud%nq; nc = ud%nc; n = 2*nq + 2*nc
@@ -90,15 +91,24 @@ contains
     r(1:nq) = yd(1:nq) - y(nq + 1:2*nq)
     call eom_residual(ud%model, t, y(1:nq), y(nq + 1:2*nq), yd(nq + 1:2*nq), y(2*nq + 1:2*nq + nc), &
                       r(nq + 1:2*nq))
-    if (nc > 0) then
-      allocate (g_jac(nc, nq))
-      call constraint_jacobian(ud%model, y(1:nq), g_jac)
-      r(1:nq) = r(1:nq) + matmul(y(2*nq + nc + 1:n), g_jac)
-      call constraint_residual(ud%model, y(1:nq), r(2*nq + 1:2*nq + nc))
-      r(2*nq + nc + 1:n) = matmul(g_jac, y(nq + 1:2*nq))
-    end if
+    if (nc > 0) call constraint_rows(ud%model, y(nq + 1:2*nq), y(2*nq + nc + 1:n), r(1:nq), &
+                                     r(2*nq + 1:2*nq + nc), r(2*nq + nc + 1:n))
     ggl_residual = 0
   end function ggl_residual
+
+  !> Constraint parts of the GGL residual at the current frames: G^T mu added to the
+  !> velocity rows, g(q) and G v.
+  subroutine constraint_rows(model, v, mu, r_q, r_g, r_gv)
+    type(model_type), intent(inout) :: model
+    real(dp), intent(in) :: v(:), mu(:)
+    real(dp), intent(inout) :: r_q(:)
+    real(dp), intent(out) :: r_g(:), r_gv(:)
+    real(dp) :: g_jac(model%nc, model%nq)
+    call clamp_jacobian(model%chain, model%clamp, model%st, g_jac)
+    r_q = r_q + matmul(mu, g_jac)
+    r_g = clamp_residual(model%clamp, model%st)
+    r_gv = matmul(g_jac, v)
+  end subroutine constraint_rows
 
   !> IDA error handler: keep the message for the Python exception instead of printing it.
   subroutine ida_error_handler(code, module_name, function_name, msg, udata) bind(C)
