@@ -13,5 +13,7 @@ Examples
 """
 
 from pydriver.deck import DeckError, RunError, Result, deck_info, run_deck, evaluate_model, shape
+from pydriver.scene import Scene, scene
 
-__all__ = ["DeckError", "RunError", "Result", "deck_info", "run_deck", "evaluate_model", "shape"]
+__all__ = ["DeckError", "RunError", "Result", "deck_info", "run_deck", "evaluate_model", "shape", "Scene",
+           "scene"]

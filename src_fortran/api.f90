@@ -14,10 +14,10 @@ module rotorcable_api
   use rotorcable_mass_matrix, only: mass_matrix_jourdain
   use rotorcable_kinematics, only: chain_positions, joint_angles
   use rotorcable_statics, only: static_result, solve_static
-  use rotorcable_dae_integrator, only: solver_stats, integrate
+  use rotorcable_dae_integrator, only: solver_stats, integrate, consistent_start
   implicit none
   private
-  public :: rc_deck_info, rc_start_state, rc_run_static, rc_run_dynamic, rc_evaluate, rc_shape, rc_run_modal
+  public :: rc_deck_info, rc_start_state, rc_scene, rc_run_static, rc_run_dynamic, rc_evaluate, rc_shape, rc_run_modal
 
   real(dp), parameter :: RAD2DEG = 180.0_dp/acos(-1.0_dp)
 
@@ -87,6 +87,82 @@ contains
     q = deck%q0
     v = deck%v0
   end subroutine rc_start_state
+
+  !> The scene of a deck as plain numbers, for independent implementations of the same
+  !> model (benchmark peers, tests): bodies, springs, supports, loads and the consistent
+  !> start state the integrators begin from (the static equilibrium when the deck starts
+  !> there, otherwise the deck's shape projected onto g = 0 and G v = 0).
+  subroutine rc_scene(path, nb, nq, lengths, radii, masses, inertia, locked, locked_angles, first_coord, &
+                      stiffness, damping, rest, base_position, base_rotation, clamp_active, clamp_position, &
+                      clamp_rotation, gravity, rotor_omega, rotor_offset, pulse_body, pulse_force, pulse_window, &
+                      tip_force, t_end, q0, v0, stat, msg)
+    character(len=*), intent(in) :: path          !< deck file
+    integer(c_int), intent(in) :: nb, nq          !< bodies, coordinates
+    real(c_double), intent(out) :: lengths(nb)    !< body lengths [m]
+    real(c_double), intent(out) :: radii(nb)      !< body radii [m]
+    real(c_double), intent(out) :: masses(nb)     !< body masses [kg]
+    real(c_double), intent(out) :: inertia(nb, 3) !< principal inertia about the CM, body axes [kg m^2]
+    integer(c_int), intent(out) :: locked(nb)     !< 1 = joint locked (clamped first body)
+    real(c_double), intent(out) :: locked_angles(nb, 2) !< (gamma, beta) of locked joints [rad]
+    integer(c_int), intent(out) :: first_coord(nb) !< 1-based index of joint j's gamma in q (0 = locked)
+    real(c_double), intent(out) :: stiffness(nq)  !< spring per coordinate [Nm/rad]
+    real(c_double), intent(out) :: damping(nq)    !< damper per coordinate [Nms/rad]
+    real(c_double), intent(out) :: rest(nq)       !< spring rest angle per coordinate [rad]
+    real(c_double), intent(out) :: base_position(3)     !< clamp A point [m]
+    real(c_double), intent(out) :: base_rotation(3, 3)  !< world <- base frame
+    integer(c_int), intent(out) :: clamp_active   !< 1 = clamp B holds the tip
+    real(c_double), intent(out) :: clamp_position(3)    !< clamp B point [m]
+    real(c_double), intent(out) :: clamp_rotation(3, 3) !< world <- clamped last body
+    real(c_double), intent(out) :: gravity(3)     !< gravitational acceleration [m/s^2]
+    real(c_double), intent(out) :: rotor_omega    !< rotor speed about world z [rad/s]
+    real(c_double), intent(out) :: rotor_offset(3) !< clamp A relative to the rotor centre [m]
+    integer(c_int), intent(out) :: pulse_body     !< body loaded by the pulse (0 = none)
+    real(c_double), intent(out) :: pulse_force(3) !< pulse force at that CM [N]
+    real(c_double), intent(out) :: pulse_window(2) !< pulse start, end [s]
+    real(c_double), intent(out) :: tip_force(3)   !< constant force at a free tip [N]
+    real(c_double), intent(out) :: t_end          !< end time of a dynamic run [s]
+    real(c_double), intent(out) :: q0(nq), v0(nq) !< consistent start coordinates and rates
+    integer(c_int), intent(out) :: stat           !< 0 = ok, 1 = deck error, 2 = start failed
+    character(len=1024), intent(out) :: msg       !< why not
+    type(deck_type) :: deck
+    type(error_type) :: error
+    character(len=64) :: group, key
+    real(dp) :: vdot(nq), lam(6)
+    integer :: stats(5)
+
+    lengths = 0; radii = 0; masses = 0; inertia = 0; locked = 0; locked_angles = 0; first_coord = 0
+    stiffness = 0; damping = 0; rest = 0; base_position = 0; base_rotation = 0; clamp_active = 0
+    clamp_position = 0; clamp_rotation = 0; gravity = 0; rotor_omega = 0; rotor_offset = 0
+    pulse_body = 0; pulse_force = 0; pulse_window = 0; tip_force = 0; t_end = 0; q0 = 0; v0 = 0
+    call open_deck(path, deck, stat, group, key, msg)
+    if (stat /= 0) return
+    associate (ch => deck%model%chain, ld => deck%model%loads, cl => deck%model%clamp)
+      lengths = ch%length; radii = ch%radius; masses = ch%mass
+      inertia = transpose(ch%inertia)
+      locked = merge(1, 0, ch%locked)
+      locked_angles = transpose(ch%locked_angles)
+      first_coord = ch%first_coord
+      stiffness = ch%stiffness; damping = ch%damping; rest = ch%rest
+      base_position = ch%base_position; base_rotation = ch%base_rotation
+      clamp_active = merge(1, 0, cl%active)
+      clamp_position = cl%position; clamp_rotation = cl%rotation
+      gravity = ld%gravity; rotor_omega = ld%rotor_omega; rotor_offset = ld%rotor_offset
+      pulse_body = ld%pulse_body; pulse_force = ld%pulse_force
+      pulse_window = [ld%pulse_start, ld%pulse_end]
+      tip_force = ld%tip_force
+    end associate
+    t_end = deck%integrator%t_end
+    q0 = deck%q0; v0 = deck%v0
+    if (deck%start_at_equilibrium) then
+      call equilibrium(deck, q0, lam, stats, error)
+      v0 = 0.0_dp
+    end if
+    if (error%code == 0) call consistent_start(deck%model, 0.0_dp, q0, v0, vdot, lam(1:deck%model%nc), error)
+    if (error%code /= 0) then
+      stat = 2
+      msg = error%message
+    end if
+  end subroutine rc_scene
 
   !> Joint angles [deg] and CM / joint-point coordinates [m] of every body for q.
   subroutine rc_shape(path, nb, nq, q, angles_deg, cm, joints, stat, msg)
