@@ -12,6 +12,14 @@ Examples
 [0.0, 0.0, 75.13...]
 """
 
+import os as _os
+
+# The core's LAPACK calls work on small matrices (tens to hundreds of rows), where BLAS
+# threads cost more than they save, and batch users run one deck per core: single-threaded
+# BLAS unless the user chose otherwise.  Must be set before the extension loads OpenBLAS.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):
+    _os.environ.setdefault(_var, "1")
+
 from pydriver.deck import DeckError, RunError, Result, deck_info, run_deck, evaluate_model, shape
 from pydriver.scene import Scene, scene
 

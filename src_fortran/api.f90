@@ -14,10 +14,13 @@ module rotorcable_api
   use rotorcable_mass_matrix, only: mass_matrix_jourdain
   use rotorcable_kinematics, only: chain_positions, joint_angles
   use rotorcable_statics, only: static_result, solve_static
-  use rotorcable_dae_integrator, only: solver_stats, integrate, consistent_start
+  use rotorcable_dae_integrator, only: solver_stats, integrate, consistent_start, ggl_residual_dense, &
+                                       ggl_jacobian_dense
+  use rotorcable_ode_integrator, only: ode_settings, integrate_ode, ODE_RK8PD, ODE_MSBDF
   implicit none
   private
-  public :: rc_deck_info, rc_start_state, rc_scene, rc_run_static, rc_run_dynamic, rc_evaluate, rc_shape, rc_run_modal
+  public :: rc_deck_info, rc_start_state, rc_scene, rc_integrate_end, rc_time_kernels, rc_run_static, rc_run_dynamic, &
+            rc_evaluate, rc_shape, rc_run_modal
 
   real(dp), parameter :: RAD2DEG = 180.0_dp/acos(-1.0_dp)
 
@@ -163,6 +166,151 @@ contains
       msg = error%message
     end if
   end subroutine rc_scene
+
+  !> One timed integration of a dynamic deck from its consistent start to t_end, for the
+  !> work-precision comparison: method 1 = IDA on the GGL index-2 DAE (the default route),
+  !> 2 = GSL rk8pd and 3 = GSL msbdf on the Baumgarte-stabilised index-1 ODE (thesis route).
+  !> Only the integration is timed (not the deck, the start equilibrium or the outputs).
+  subroutine rc_integrate_end(path, method, rtol, atol, h_max, baumgarte_omega, nb, nq, cm_end, tip_end, &
+                              wrenches_end, gmax, stats, cpu_s, wall_s, stat, msg)
+    character(len=*), intent(in) :: path          !< deck file
+    integer(c_int), intent(in) :: method          !< 1 IDA-GGL, 2 GSL rk8pd, 3 GSL msbdf
+    real(c_double), intent(in) :: rtol, atol      !< tolerances (atol on q [rad] and v [rad/s])
+    real(c_double), intent(in) :: h_max           !< maximum step [s]; < 0 = the deck's, 0 = none
+    real(c_double), intent(in) :: baumgarte_omega !< Baumgarte constant of the ODE route [1/s]
+    integer(c_int), intent(in) :: nb, nq          !< bodies, coordinates
+    real(c_double), intent(out) :: cm_end(nb, 3)  !< centres of mass at t_end [m]
+    real(c_double), intent(out) :: tip_end(3)     !< chain tip P_{n+1} at t_end [m]
+    real(c_double), intent(out) :: wrenches_end(12) !< F_A, M_A, F_B, M_B at t_end [N, Nm]
+    real(c_double), intent(out) :: gmax           !< max |g| position rows at t_end [m]
+    integer(c_int), intent(out) :: stats(5)       !< steps, rhs/residual evals, Jacobians, error-test fails, conv fails
+    real(c_double), intent(out) :: cpu_s, wall_s  !< CPU and wall time of the integration [s]
+    integer(c_int), intent(out) :: stat           !< 0 = ok, 1 = deck error, 2 = run error
+    character(len=1024), intent(out) :: msg       !< why not
+    type(deck_type) :: deck
+    type(error_type) :: error
+    type(solver_stats) :: ss
+    type(ode_settings) :: ode
+    character(len=64) :: group, key
+    real(dp) :: t(2), q_out(nq, 2), v_out(nq, 2), vdot(nq), lam(6), ang(nb, 2), joints(nb + 1, 3), g(6)
+    real(dp) :: c0, c1
+    integer(kind=8) :: k0, k1, rate
+    integer :: info, nc
+
+    cm_end = 0.0_dp; tip_end = 0.0_dp; wrenches_end = 0.0_dp; gmax = 0.0_dp; stats = 0
+    cpu_s = 0.0_dp; wall_s = 0.0_dp
+    call open_deck(path, deck, stat, group, key, msg)
+    if (stat /= 0) return
+    nc = deck%model%nc
+    if (deck%start_at_equilibrium) then
+      call equilibrium(deck, vdot, lam, stats, error)
+      deck%q0 = vdot
+      deck%v0 = 0.0_dp
+    end if
+    if (error%code == 0) then
+      t = [0.0_dp, deck%integrator%t_end]
+      if (h_max >= 0.0_dp) deck%integrator%h_max = h_max
+      deck%integrator%rtol = rtol
+      deck%integrator%atol = atol
+      call system_clock(k0, rate)
+      call cpu_time(c0)
+      select case (method)
+      case (1)
+        call integrate(deck%model, deck%integrator, deck%q0, deck%v0, t, q_out, v_out, ss, error)
+      case (2, 3)
+        ode%method = merge(ODE_RK8PD, ODE_MSBDF, method == 2)
+        ode%rtol = rtol
+        ode%atol = atol
+        ode%baumgarte_omega = baumgarte_omega
+        ode%h_max = deck%integrator%h_max
+        call integrate_ode(deck%model, ode, deck%q0, deck%v0, t, q_out, v_out, ss, error)
+      case default
+        call fatal_error(error, 'unknown integration method')
+      end select
+      call cpu_time(c1)
+      call system_clock(k1)
+      cpu_s = c1 - c0
+      wall_s = real(k1 - k0, dp)/real(rate, dp)
+      stats = [ss%steps, ss%residual_evals, ss%jacobian_evals, ss%error_test_failures, ss%convergence_failures]
+    end if
+    if (error%code /= 0) then
+      stat = 2
+      msg = error%message
+      return
+    end if
+    call fill_shape(deck, q_out(:, 2), ang, cm_end, joints)
+    tip_end = joints(nb + 1, :)
+    lam = 0.0_dp
+    call solve_accelerations(deck%model, t(2), q_out(:, 2), v_out(:, 2), vdot, lam(1:nc), info)
+    call reaction_wrenches(deck%model, t(2), q_out(:, 2), v_out(:, 2), vdot, lam, wrenches_end)
+    if (nc > 0) then
+      call constraint_residual(deck%model, q_out(:, 2), g)
+      gmax = maxval(abs(g(1:3)))
+    end if
+  end subroutine rc_integrate_end
+
+  !> Cost of the integrator's kernels at the deck's consistent start, timed in a loop
+  !> here (no Python call overhead): one GGL residual (inverse dynamics, g, G, G v), one
+  !> structured Jacobian and one mass matrix.  Also returns the residual itself.
+  subroutine rc_time_kernels(path, n_rep, n, residual, ns_residual, ns_jacobian, ns_mass, stat, msg)
+    character(len=*), intent(in) :: path          !< deck file
+    integer(c_int), intent(in) :: n_rep          !< repetitions of the residual (Jacobian: n_rep/100 + 1)
+    integer(c_int), intent(in) :: n               !< GGL unknowns 2 nq + 2 nc
+    real(c_double), intent(out) :: residual(n)    !< residual at the start (should be ~0)
+    real(c_double), intent(out) :: ns_residual    !< wall time per residual [ns]
+    real(c_double), intent(out) :: ns_jacobian    !< wall time per Jacobian [ns]
+    real(c_double), intent(out) :: ns_mass        !< wall time per mass matrix [ns]
+    integer(c_int), intent(out) :: stat           !< 0 = ok
+    character(len=1024), intent(out) :: msg       !< why not
+    type(deck_type) :: deck
+    type(error_type) :: error
+    character(len=64) :: group, key
+    real(dp), allocatable :: y(:), yd(:), jac(:, :), m(:, :), vdot(:), lam(:)
+    integer(kind=8) :: k0, k1, rate
+    integer :: nq, nc, i, n_jac
+    real(dp) :: sink
+
+    residual = 0.0_dp; ns_residual = 0.0_dp; ns_jacobian = 0.0_dp; ns_mass = 0.0_dp
+    call open_deck(path, deck, stat, group, key, msg)
+    if (stat /= 0) return
+    nq = deck%model%nq; nc = deck%model%nc
+    allocate (y(n), yd(n), jac(n, n), m(nq, nq), vdot(nq), lam(max(nc, 1)))
+    call consistent_start(deck%model, 0.0_dp, deck%q0, deck%v0, vdot, lam(1:nc), error)
+    if (error%code /= 0) then
+      stat = 2
+      msg = error%message
+      return
+    end if
+    y = 0.0_dp; yd = 0.0_dp
+    y(1:nq) = deck%q0; y(nq + 1:2*nq) = deck%v0; y(2*nq + 1:2*nq + nc) = lam(1:nc)
+    yd(1:nq) = deck%v0; yd(nq + 1:2*nq) = vdot
+    sink = 0.0_dp
+    call system_clock(k0, rate)
+    do i = 1, n_rep
+      ! Vary t slightly so that the loop cannot be hoisted.
+      call ggl_residual_dense(deck%model, 1.0e-9_dp*i, y, yd, residual)
+      sink = sink + residual(1)
+    end do
+    call system_clock(k1)
+    ns_residual = 1.0e9_dp*real(k1 - k0, dp)/real(rate, dp)/n_rep
+    n_jac = n_rep/100 + 1
+    call system_clock(k0)
+    do i = 1, n_jac
+      call ggl_jacobian_dense(deck%model, 0.0_dp, 1.0e3_dp, y, yd, jac)
+      sink = sink + jac(1, 1)
+    end do
+    call system_clock(k1)
+    ns_jacobian = 1.0e9_dp*real(k1 - k0, dp)/real(rate, dp)/n_jac
+    call system_clock(k0)
+    do i = 1, n_rep
+      call mass_matrix(deck%model, y(1:nq), m)
+      sink = sink + m(1, 1)
+    end do
+    call system_clock(k1)
+    ns_mass = 1.0e9_dp*real(k1 - k0, dp)/real(rate, dp)/n_rep
+    call ggl_residual_dense(deck%model, 0.0_dp, y, yd, residual)
+    if (sink /= sink) msg = 'NaN'   ! keeps sink alive
+  end subroutine rc_time_kernels
 
   !> Joint angles [deg] and CM / joint-point coordinates [m] of every body for q.
   subroutine rc_shape(path, nb, nq, q, angles_deg, cm, joints, stat, msg)

@@ -216,7 +216,7 @@ contains
       return
     end if
 
-    t_end = 1.0_dp; dt_out = 1.0e-2_dp; rtol = 1.0e-8_dp; atol = 1.0e-10_dp; atol_multiplier = 1.0_dp
+    t_end = 1.0_dp; dt_out = 1.0e-2_dp; rtol = 1.0e-8_dp; atol = 1.0e-10_dp; atol_multiplier = 1.0e4_dp
     h_max = 0.0_dp; max_steps = 500000; newton_tol = 1.0e-10_dp; newton_max_iter = 200
     static_method = 'newton'; settle_tol = 1.0e-8_dp
     if (.not. read_group('solver', optional_group=.true.)) return

@@ -10,7 +10,8 @@ module rotorcable_ida_binding
             IDASVtolerances, IDASetUserData, IDASetId, IDASetSuppressAlg, IDASetLinearSolver, &
             IDASetMaxNumSteps, IDASetMaxStep, IDASetStopTime, IDASolve, IDAReInit, IDAFree, &
             IDAGetNumSteps, IDAGetNumResEvals, IDAGetNumJacEvals, IDAGetNumLinResEvals, &
-            IDAGetNumErrTestFails, IDAGetNumNonlinSolvConvFails, IDASetErrHandlerFn, IDA_NORMAL
+            IDAGetNumErrTestFails, IDAGetNumNonlinSolvConvFails, IDASetErrHandlerFn, IDA_NORMAL, &
+            IDASetJacFn, SUNDenseMatrix_Data, IDAGetNumLinSolvSetups
 
   integer(c_int), parameter :: IDA_NORMAL = 1   !< itask of IDASolve: return at tout
 
@@ -157,6 +158,20 @@ module rotorcable_ida_binding
       type(c_funptr), value :: ehfun
       type(c_ptr), value :: eh_data
     end function IDASetErrHandlerFn
+    integer(c_int) function IDASetJacFn(mem, jac) bind(C, name='IDASetJacFn')
+      import :: c_int, c_ptr, c_funptr
+      type(c_ptr), value :: mem
+      type(c_funptr), value :: jac
+    end function IDASetJacFn
+    type(c_ptr) function SUNDenseMatrix_Data(a) bind(C, name='SUNDenseMatrix_Data')
+      import :: c_ptr
+      type(c_ptr), value :: a
+    end function SUNDenseMatrix_Data
+    integer(c_int) function IDAGetNumLinSolvSetups(mem, n) bind(C, name='IDAGetNumLinSolvSetups')
+      import :: c_int, c_ptr, c_long
+      type(c_ptr), value :: mem
+      integer(c_long) :: n
+    end function IDAGetNumLinSolvSetups
   end interface
 
 end module rotorcable_ida_binding

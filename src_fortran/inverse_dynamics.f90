@@ -25,7 +25,10 @@ contains
     integer, intent(in) :: j                  !< body index
     real(dp), intent(in) :: v(3)              !< world vector
     real(dp) :: iv(3)
-    iv = matmul(st%rot(:, :, j), chain%inertia(:, j)*matmul(v, st%rot(:, :, j)))
+    real(dp) :: r(3, 3), body(3)
+    r = st%rot(:, :, j)
+    body = chain%inertia(:, j)*matmul(v, r)
+    iv = matmul(r, body)
   end function world_inertia_times
 
   !> Joint torques and base reaction by the Newton-Euler backward pass.

@@ -50,11 +50,14 @@ contains
   !> Relative rotation parent -> child (active), eq. 4.7/4.8 transposed.
   pure function joint_rotation(kind, angles) result(r_rel)
     integer, intent(in) :: kind        !< parametrisation
-    real(dp), intent(in) :: angles(:)  !< joint angles [rad] (gamma, beta) for JOINT_ZY
+    real(dp), intent(in) :: angles(2)  !< joint angles [rad] (gamma, beta) for JOINT_ZY
     real(dp) :: r_rel(3, 3)
+    real(dp) :: a(3, 3), b(3, 3)
     select case (kind)
     case (JOINT_ZY)
-      r_rel = matmul(rot_z(angles(1)), rot_y(angles(2)))
+      a = rot_z(angles(1))
+      b = rot_y(angles(2))
+      r_rel = matmul(a, b)
     case default
       r_rel = 0.0_dp
     end select

@@ -62,18 +62,21 @@ contains
     type(chain_type), intent(in) :: chain      !< chain description
     real(dp), intent(in) :: q(:)               !< generalized coordinates [rad]
     type(chain_state), intent(inout) :: st     !< state (positions filled)
-    real(dp) :: r_parent(3, 3)
+    ! Explicit-shape locals let the compiler inline the 3x3 products (no library matmul).
+    real(dp) :: r_parent(3, 3), r_rel(3, 3), r_child(3, 3)
     integer :: j, nd
 
     r_parent = chain%base_rotation
     st%joint_point(:, 1) = chain%base_position
     do j = 1, chain%n_bodies
-      st%rot(:, :, j) = matmul(r_parent, joint_rotation(chain%joint_kind(j), joint_angles(chain, q, j)))
+      r_rel = joint_rotation(chain%joint_kind(j), joint_angles(chain, q, j))
+      r_child = matmul(r_parent, r_rel)
+      st%rot(:, :, j) = r_child
       nd = chain%n_joint_coords(j)
-      if (nd > 0) call joint_axes(chain%joint_kind(j), r_parent, st%rot(:, :, j), st%axes(:, 1:nd, j))
-      st%cm(:, j) = st%joint_point(:, j) + 0.5_dp*chain%length(j)*st%rot(:, 3, j)
-      st%joint_point(:, j + 1) = st%joint_point(:, j) + chain%length(j)*st%rot(:, 3, j)
-      r_parent = st%rot(:, :, j)
+      if (nd > 0) call joint_axes(chain%joint_kind(j), r_parent, r_child, st%axes(:, 1:nd, j))
+      st%cm(:, j) = st%joint_point(:, j) + 0.5_dp*chain%length(j)*r_child(:, 3)
+      st%joint_point(:, j + 1) = st%joint_point(:, j) + chain%length(j)*r_child(:, 3)
+      r_parent = r_child
     end do
   end subroutine chain_positions
 
@@ -83,7 +86,7 @@ contains
     real(dp), intent(in) :: qd(:)              !< coordinate rates [rad/s]
     real(dp), intent(in) :: qdd(:)             !< coordinate accelerations [rad/s^2]
     type(chain_state), intent(inout) :: st     !< state (motion filled)
-    real(dp) :: w_parent(3), a_parent(3), w_rel(3), r(3)
+    real(dp) :: w_parent(3), a_parent(3), w_rel(3), r(3), dv(3), da(3)
     integer :: j, k, i0, nd
 
     w_parent = 0.0_dp
@@ -105,15 +108,15 @@ contains
         st%alpha(:, j) = st%alpha(:, j) + cross(w_parent, w_rel) &
                          + joint_bias(chain%joint_kind(j), st%axes(:, 1:nd, j), qd(i0 + 1:i0 + nd))
       end if
-      ! Rigid-body transport of velocity and acceleration along the body (eq. 3.14, 3.21).
-      r = st%cm(:, j) - st%joint_point(:, j)
-      st%vel_cm(:, j) = st%vel_joint(:, j) + cross(st%omega(:, j), r)
-      st%acc_cm(:, j) = st%acc_joint(:, j) + cross(st%alpha(:, j), r) &
-                        + cross(st%omega(:, j), cross(st%omega(:, j), r))
+      ! Rigid-body transport of velocity and acceleration along the body (eq. 3.14, 3.21)
+      ! to the next joint; the CM lies halfway (eq. 4.3), so its terms are the halves.
       r = st%joint_point(:, j + 1) - st%joint_point(:, j)
-      st%vel_joint(:, j + 1) = st%vel_joint(:, j) + cross(st%omega(:, j), r)
-      st%acc_joint(:, j + 1) = st%acc_joint(:, j) + cross(st%alpha(:, j), r) &
-                               + cross(st%omega(:, j), cross(st%omega(:, j), r))
+      dv = cross(st%omega(:, j), r)
+      da = cross(st%alpha(:, j), r) + cross(st%omega(:, j), dv)
+      st%vel_cm(:, j) = st%vel_joint(:, j) + 0.5_dp*dv
+      st%acc_cm(:, j) = st%acc_joint(:, j) + 0.5_dp*da
+      st%vel_joint(:, j + 1) = st%vel_joint(:, j) + dv
+      st%acc_joint(:, j + 1) = st%acc_joint(:, j) + da
       w_parent = st%omega(:, j)
       a_parent = st%alpha(:, j)
     end do

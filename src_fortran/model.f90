@@ -27,6 +27,7 @@ module rotorcable_model
     integer :: nc = 0                         !< number of constraint rows
     type(chain_state) :: st                   !< kinematic workspace
     real(dp), allocatable :: force(:, :)      !< (3,n) body force workspace
+    real(dp), allocatable :: g_jac(:, :)      !< (nc,nq) constraint Jacobian workspace
   end type model_type
 
 contains
@@ -37,7 +38,7 @@ contains
     model%nq = model%chain%n_coords
     model%nc = clamp_rows(model%clamp)
     call state_allocate(model%chain, model%st)
-    allocate (model%force(3, model%chain%n_bodies))
+    allocate (model%force(3, model%chain%n_bodies), model%g_jac(model%nc, model%nq))
   end subroutine model_init
 
   !> Equation-of-motion residual  M vdot - k - G^T lambda  by one inverse-dynamics pass,
@@ -59,7 +60,8 @@ contains
     m_b = 0.0_dp
     if (model%nc > 0) call clamp_wrench(model%clamp, model%st, lambda(1:6), f_b, m_b)
     call inverse_dynamics(model%chain, model%st, model%force, f_b, m_b, res, f_a, m_a)
-    res = res - spring_damper_forces(model%chain, q, v)
+    ! Springs and dampers, eq. 4.79-4.85 (spring_damper_forces), added without a temporary.
+    res = res + model%chain%stiffness*(q - model%chain%rest) + model%chain%damping*v
     if (present(wrenches)) wrenches = [f_a, m_a, f_b, m_b]
   end subroutine eom_residual
 
@@ -129,14 +131,17 @@ contains
   !> Accelerations and multipliers from the acceleration-level system, eq. 3.55:
   !>   [M G^T; G 0] [vdot; -lambda] = [k; -Gdot v]
   !> (eq. 3.56/3.57 without forming inverses).  info /= 0 if the system is singular.
-  subroutine solve_accelerations(model, t, q, v, vdot, lambda, info)
+  !> With baumgarte_omega = w the constraint rows become Baumgarte's stabilised
+  !> gdd + 2 w gd + w^2 g = 0 (the ODE route, ode_integrator).
+  subroutine solve_accelerations(model, t, q, v, vdot, lambda, info, baumgarte_omega)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t                 !< time [s]
     real(dp), intent(in) :: q(:), v(:)        !< coordinates and rates
     real(dp), intent(out) :: vdot(:)          !< accelerations
     real(dp), intent(out) :: lambda(:)        !< multipliers (size nc)
     integer, intent(out) :: info              !< LAPACK status
-    real(dp) :: a(model%nq + model%nc, model%nq + model%nc), rhs(model%nq + model%nc)
+    real(dp), intent(in), optional :: baumgarte_omega  !< Baumgarte constant w [1/s]
+    real(dp) :: a(model%nq + model%nc, model%nq + model%nc), rhs(model%nq + model%nc), g(model%nc)
     integer :: nq, nc
     nq = model%nq; nc = model%nc
     a = 0.0_dp
@@ -147,6 +152,11 @@ contains
       a(1:nq, nq + 1:) = transpose(a(nq + 1:, 1:nq))
       call constraint_bias(model, q, v, rhs(nq + 1:))
       rhs(nq + 1:) = -rhs(nq + 1:)
+      if (present(baumgarte_omega)) then
+        call constraint_residual(model, q, g)
+        rhs(nq + 1:) = rhs(nq + 1:) - 2.0_dp*baumgarte_omega*matmul(a(nq + 1:, 1:nq), v) &
+                       - baumgarte_omega**2*g
+      end if
     end if
     call solve_dense(a, rhs, info)
     vdot = rhs(1:nq)

@@ -17,7 +17,9 @@ contains
     real(dp) :: r(3, 3)
     real(dp) :: c, s
     c = cos(a); s = sin(a)
-    r = reshape([c, s, 0.0_dp, -s, c, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp], [3, 3])
+    r(:, 1) = [c, s, 0.0_dp]
+    r(:, 2) = [-s, c, 0.0_dp]
+    r(:, 3) = [0.0_dp, 0.0_dp, 1.0_dp]
   end function rot_z
 
   !> Active rotation about y by angle b (transpose of thesis eq. 4.6).
@@ -26,7 +28,9 @@ contains
     real(dp) :: r(3, 3)
     real(dp) :: c, s
     c = cos(b); s = sin(b)
-    r = reshape([c, 0.0_dp, -s, 0.0_dp, 1.0_dp, 0.0_dp, s, 0.0_dp, c], [3, 3])
+    r(:, 1) = [c, 0.0_dp, -s]
+    r(:, 2) = [0.0_dp, 1.0_dp, 0.0_dp]
+    r(:, 3) = [s, 0.0_dp, c]
   end function rot_y
 
   !> Cross product a x b.
@@ -34,14 +38,18 @@ contains
     real(dp), intent(in) :: a(3)       !< first factor
     real(dp), intent(in) :: b(3)       !< second factor
     real(dp) :: c(3)
-    c = [a(2)*b(3) - a(3)*b(2), a(3)*b(1) - a(1)*b(3), a(1)*b(2) - a(2)*b(1)]
+    c(1) = a(2)*b(3) - a(3)*b(2)
+    c(2) = a(3)*b(1) - a(1)*b(3)
+    c(3) = a(1)*b(2) - a(2)*b(1)
   end function cross
 
   !> Tilde (cross-product) matrix of w, eq. 4.4: skew(w) v = w x v.
   pure function skew(w) result(m)
     real(dp), intent(in) :: w(3)       !< vector
     real(dp) :: m(3, 3)
-    m = reshape([0.0_dp, w(3), -w(2), -w(3), 0.0_dp, w(1), w(2), -w(1), 0.0_dp], [3, 3])
+    m(:, 1) = [0.0_dp, w(3), -w(2)]
+    m(:, 2) = [-w(3), 0.0_dp, w(1)]
+    m(:, 3) = [w(2), -w(1), 0.0_dp]
   end function skew
 
   !> Inverse of skew: the axial vector (m32, m13, m21) of a matrix.
