@@ -50,6 +50,11 @@ def decay_analysis(t, signal, name: str, pulse_end: float, settle: float = 0.1) 
     t = np.asarray(t, float)
     y = np.asarray(signal, float) - float(signal[0])
     m = t >= pulse_end + settle
+    if np.count_nonzero(m) < 3:
+        # The run ends before the free decay starts: nothing to analyse (not an error).
+        return {"signal": name, "window_s": [], "n_zero_crossings": 0, "f_damped_hz": float("nan"),
+                "f_fft_peak_hz": float("nan"), "zeta": float("nan"),
+                "note": f"run ends before t = {pulse_end + settle:g} s, no free decay to analyse"}
     tc = zero_crossings(t[m], y[m])
     out = {"signal": name, "window_s": [float(t[m][0]), float(t[m][-1])], "n_zero_crossings": int(len(tc))}
     if len(tc) < 3:

@@ -13,6 +13,7 @@ module rotorcable_api
                               solve_accelerations, reaction_wrenches, total_energy
   use rotorcable_mass_matrix, only: mass_matrix_jourdain
   use rotorcable_kinematics, only: chain_positions, joint_angles
+  use rotorcable_joint, only: thesis_angles
   use rotorcable_statics, only: static_result, solve_static
   use rotorcable_dae_integrator, only: solver_stats, integrate, consistent_start, ggl_residual_dense, &
                                        ggl_jacobian_dense
@@ -337,7 +338,7 @@ contains
     integer :: j
     call chain_positions(deck%model%chain, q, deck%model%st)
     do j = 1, deck%model%chain%n_bodies
-      angles_deg(j, :) = joint_angles(deck%model%chain, q, j)*RAD2DEG
+      angles_deg(j, :) = thesis_angles(deck%model%chain%joint_kind(j), joint_angles(deck%model%chain, q, j))*RAD2DEG
     end do
     cm = transpose(deck%model%st%cm)
     joints = transpose(deck%model%st%joint_point)

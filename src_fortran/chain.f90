@@ -48,13 +48,14 @@ contains
 
   !> Allocate a chain of n equal cylinders with thesis joints; `locked` marks locked joints.
   !> Coordinates are numbered here, once, so every kernel shares one map.
-  pure subroutine chain_allocate(chain, n, length, radius, mass, locked)
+  pure subroutine chain_allocate(chain, n, length, radius, mass, locked, joint_kind)
     type(chain_type), intent(out) :: chain    !< chain to build
     integer, intent(in) :: n                  !< number of bodies
     real(dp), intent(in) :: length(n)         !< body lengths [m]
     real(dp), intent(in) :: radius(n)         !< body radii [m]
     real(dp), intent(in) :: mass(n)           !< body masses [kg]
     logical, intent(in) :: locked(n)          !< locked joints
+    integer, intent(in), optional :: joint_kind  !< parametrisation of the free joints (JOINT_ZY)
     integer :: j, nq
 
     chain%n_bodies = n
@@ -66,7 +67,11 @@ contains
       chain%inertia(:, j) = cylinder_inertia(mass(j), length(j), radius(j))
     end do
     allocate (chain%joint_kind(n), chain%first_coord(n), chain%n_joint_coords(n))
+    ! Locked joints keep the thesis's angles (they have no coordinates to be singular in).
     chain%joint_kind = JOINT_ZY
+    if (present(joint_kind)) then
+      where (.not. locked) chain%joint_kind = joint_kind
+    end if
     chain%locked = locked
     allocate (chain%locked_angles(2, n))
     chain%locked_angles = 0.0_dp

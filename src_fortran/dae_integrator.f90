@@ -18,6 +18,7 @@ module rotorcable_dae_integrator
                               solve_accelerations, project_positions, project_velocities, mass_matrix
   use rotorcable_constraints, only: clamp_jacobian, clamp_residual
   use rotorcable_ida_binding
+  use rotorcable_joint, only: JOINT_ZY
   implicit none
   private
   public :: integrator_settings, solver_stats, consistent_start, integrate, ggl_residual_dense, &
@@ -31,7 +32,7 @@ module rotorcable_dae_integrator
     real(dp) :: atol = 1.0e-10_dp             !< absolute tolerance on q [rad] and v [rad/s]
     real(dp) :: atol_multiplier = 1.0e4_dp   !< absolute tolerance on lambda, mu [N, Nm] (Newton test only)
     real(dp) :: h_max = 0.0_dp                !< maximum step [s] (0 = IDA's default)
-    integer :: max_steps = 500000             !< maximum steps per output interval
+    integer :: max_steps = 500000             !< step budget of the whole run (a run never hangs)
     logical :: structured_jacobian = .true.   !< own Jacobian (jacobian_ggl) instead of IDA's DQ
   end type integrator_settings
 
@@ -189,6 +190,33 @@ contains
     end do
   end subroutine constraint_rows
 
+  !> Diagnostic appended to a failed run: the thesis's zy joint is singular at beta = 0,
+  !> where gamma stops being a bending direction and must turn fast to follow the motion.
+  function singularity_hint(model, q) result(hint)
+    type(model_type), intent(in) :: model     !< model
+    real(dp), intent(in) :: q(:)              !< coordinates at the failure
+    character(len=:), allocatable :: hint
+    real(dp) :: beta_min
+    integer :: j, j_min, i0
+    character(len=160) :: buf
+    hint = ''
+    beta_min = huge(1.0_dp)
+    j_min = 0
+    do j = 1, model%chain%n_bodies
+      i0 = model%chain%first_coord(j)
+      if (i0 == 0 .or. model%chain%joint_kind(j) /= JOINT_ZY) cycle
+      if (abs(sin(q(i0 + 1))) < beta_min) then
+        beta_min = abs(sin(q(i0 + 1)))
+        j_min = j
+      end if
+    end do
+    if (j_min > 0 .and. beta_min < sin(2.0_dp*acos(-1.0_dp)/180.0_dp)) then
+      write (buf, '(a, i0, a, f6.3, a)') '; joint ', j_min, ' is near beta = 0 (|sin beta| = ', beta_min, &
+        '), the singularity of the thesis''s zy joint: try &chain joint = ''xy'''
+      hint = trim(buf)
+    end if
+  end function singularity_hint
+
   !> IDA error handler: keep the message for the Python exception instead of printing it.
   subroutine ida_error_handler(code, module_name, function_name, msg, udata) bind(C)
     integer(c_int), value :: code
@@ -223,10 +251,11 @@ contains
     real(c_double) :: tret
     integer(c_int) :: flag
     integer(c_int64_t) :: n64
-    integer(c_long) :: counter
+    integer(c_long) :: counter, steps_before
     integer :: nq, nc, n, k
 
     nq = model%nq; nc = model%nc; n = 2*nq + 2*nc
+    steps_before = 0
     q = q0; v = v0
     call consistent_start(model, t_out(1), q, v, vdot, lambda(1:nc), error)
     if (error%code /= 0) return
@@ -264,7 +293,6 @@ contains
     ls = SUNLinSol_Dense(yy, mat, ctx)
     call check(IDASetLinearSolver(mem, ls, mat), 'IDASetLinearSolver')
     if (settings%structured_jacobian) call check(IDASetJacFn(mem, c_funloc(ggl_jacobian)), 'IDASetJacFn')
-    call check(IDASetMaxNumSteps(mem, int(settings%max_steps, c_long)), 'IDASetMaxNumSteps')
     if (settings%h_max > 0.0_dp) call check(IDASetMaxStep(mem, real(settings%h_max, c_double)), 'IDASetMaxStep')
     if (model%loads%pulse_body > 0) then
       ! Step exactly onto the pulse switching times: the force is discontinuous there.
@@ -272,14 +300,13 @@ contains
     else
       do k = 2, size(t_out)
         if (error%code /= 0) exit
-        flag = IDASolve(mem, real(t_out(k), c_double), tret, yy, yp, IDA_NORMAL)
-        call check(flag, 'IDASolve')
+        call advance(t_out(k))
         q_out(:, k) = y(1:nq); v_out(:, k) = y(nq + 1:2*nq)
       end do
     end if
 
     if (c_associated(mem)) then
-      flag = IDAGetNumSteps(mem, counter); stats%steps = int(counter)
+      flag = IDAGetNumSteps(mem, counter); stats%steps = int(counter + steps_before)
       flag = IDAGetNumResEvals(mem, counter); stats%residual_evals = int(counter)
       flag = IDAGetNumLinResEvals(mem, counter)
       stats%residual_evals = stats%residual_evals + int(counter) + ud%jac_residuals
@@ -305,6 +332,32 @@ contains
       end if
     end subroutine check
 
+    !> IDASolve to t_target within what is left of the run's step budget; a spent budget
+    !> becomes an error that says where and, near beta = 0, why.
+    subroutine advance(t_target)
+      real(dp), intent(in) :: t_target
+      integer(c_long) :: used
+      character(len=96) :: buf
+      if (error%code /= 0) return
+      flag = IDAGetNumSteps(mem, used)
+      used = used + steps_before
+      if (used >= settings%max_steps) then
+        flag = -1_c_int
+      else
+        call check(IDASetMaxNumSteps(mem, int(settings%max_steps, c_long) - used), 'IDASetMaxNumSteps')
+        flag = IDASolve(mem, real(t_target, c_double), tret, yy, yp, IDA_NORMAL)
+      end if
+      if (flag == -1_c_int) then      ! IDA_TOO_MUCH_WORK
+        write (buf, '(a, i0, a, es10.3, a)') 'step budget (solver max_steps = ', settings%max_steps, &
+          ') used up at t = ', tret, ' s'
+        call fatal_error(error, trim(buf)//'; the motion is too fast for the tolerances'// &
+                         singularity_hint(model, y(1:nq)))
+        return
+      end if
+      call check(flag, 'IDASolve')
+      if (error%code /= 0) error%message = trim(error%message)//singularity_hint(model, y(1:nq))
+    end subroutine advance
+
     subroutine integrate_pulse_aware()
       real(dp) :: t_switch(2), t_target
       integer :: kk, s
@@ -321,19 +374,18 @@ contains
         if (s <= 2) then
           if (t_switch(s) > t_out(kk - 1) .and. t_switch(s) <= t_out(kk)) then
             call check(IDASetStopTime(mem, real(t_switch(s), c_double)), 'IDASetStopTime')
-            flag = IDASolve(mem, real(t_switch(s), c_double), tret, yy, yp, IDA_NORMAL)
-            call check(flag, 'IDASolve')
+            call advance(t_switch(s))
+            if (error%code /= 0) exit
             ! Restart the multistep history at the discontinuity, and lift the stop time
             ! (SUNDIALS 6.4 has no IDAClearStopTime).
+            flag = IDAGetNumSteps(mem, counter)
+            steps_before = steps_before + counter    ! IDAReInit zeroes IDA's counters
             call check(IDAReInit(mem, tret, yy, yp), 'IDAReInit')
             call check(IDASetStopTime(mem, real(2.0_dp*t_out(size(t_out)) + 1.0_dp, c_double)), 'IDASetStopTime')
             s = s + 1
           end if
         end if
-        if (t_target > tret) then
-          flag = IDASolve(mem, real(t_target, c_double), tret, yy, yp, IDA_NORMAL)
-          call check(flag, 'IDASolve')
-        end if
+        if (t_target > tret .and. error%code == 0) call advance(t_target)
         q_out(:, kk) = y(1:nq); v_out(:, kk) = y(nq + 1:2*nq)
       end do
     end subroutine integrate_pulse_aware

@@ -2,7 +2,8 @@
 !>
 !> Groups (see inputs/*.nml for commented examples and docs/model.md for meaning):
 !>   &case    name, analysis ('static' | 'dynamic' | 'modal'), start ('shape' | 'equilibrium')
-!>   &chain   n_bodies, total_length, diameter, density | total_mass, first_body ('clamped' | 'pivot')
+!>   &chain   n_bodies, total_length, diameter, density | total_mass, first_body ('clamped' | 'pivot'),
+!>            joint ('zy' thesis two-angle joint, default | 'xy' Cardan bending angles)
 !>   &shape   gamma_deg(:), beta_deg(:) joint angles of the start shape [deg],
 !>            gamma_rate_deg(:), beta_rate_deg(:) start rates [deg/s]
 !>   &springs c_gamma, c_beta [Nm/rad], d_gamma, d_beta [Nms/rad], rest_gamma_deg(:), rest_beta_deg(:)
@@ -16,6 +17,7 @@ module rotorcable_deck
   use rotorcable_kinds, only: dp
   use rotorcable_deck_scan, only: key_spec, scan_deck, scan_failure
   use rotorcable_chain, only: chain_allocate
+  use rotorcable_joint, only: JOINT_ZY, JOINT_XY, angles_from_thesis
   use rotorcable_model, only: model_type, model_init
   use rotorcable_kinematics, only: chain_state, state_allocate, chain_positions
   use rotorcable_rotations, only: rot_y, rot_z
@@ -54,7 +56,7 @@ contains
          key_spec('case', 'start', 'c'), &
          key_spec('chain', 'n_bodies', 'i'), key_spec('chain', 'total_length', 'r'), &
          key_spec('chain', 'diameter', 'r'), key_spec('chain', 'density', 'r'), &
-         key_spec('chain', 'total_mass', 'r'), key_spec('chain', 'first_body', 'c'), &
+         key_spec('chain', 'total_mass', 'r'), key_spec('chain', 'first_body', 'c'), key_spec('chain', 'joint', 'c'), &
          key_spec('shape', 'gamma_deg', 'r'), key_spec('shape', 'beta_deg', 'r'), &
          key_spec('shape', 'gamma_rate_deg', 'r'), key_spec('shape', 'beta_rate_deg', 'r'), &
          key_spec('springs', 'c_gamma', 'r'), key_spec('springs', 'c_beta', 'r'), &
@@ -85,7 +87,7 @@ contains
     ! &chain
     integer :: n_bodies
     real(dp) :: total_length, diameter, density, total_mass
-    character(len=16) :: first_body
+    character(len=16) :: first_body, joint
     ! &shape
     real(dp) :: gamma_deg(MAX_BODIES), beta_deg(MAX_BODIES), gamma_rate_deg(MAX_BODIES), beta_rate_deg(MAX_BODIES)
     ! &springs
@@ -103,13 +105,13 @@ contains
     real(dp) :: settle_tol
 
     namelist /case/ name, analysis, description, start
-    namelist /chain/ n_bodies, total_length, diameter, density, total_mass, first_body
+    namelist /chain/ n_bodies, total_length, diameter, density, total_mass, first_body, joint
     namelist /shape/ gamma_deg, beta_deg, gamma_rate_deg, beta_rate_deg
     namelist /springs/ c_gamma, c_beta, d_gamma, d_beta, rest_gamma_deg, rest_beta_deg
     namelist /solver/ t_end, dt_out, rtol, atol, atol_multiplier, h_max, max_steps, newton_tol, newton_max_iter, &
                       static_method, settle_tol
 
-    integer :: u, ios, n, j, nq, i0
+    integer :: u, ios, n, j, nq, i0, joint_kind
     character(len=512) :: iomsg
     logical, allocatable :: locked(:)
     real(dp) :: lbody, radius, mbody, reach, span
@@ -147,8 +149,18 @@ contains
     end select
 
     n_bodies = -1; total_length = UNSET; diameter = UNSET; density = UNSET; total_mass = UNSET
-    first_body = 'clamped'
+    first_body = 'clamped'; joint = 'zy'
     if (.not. read_group('chain')) return
+    select case (trim(joint))
+    case ('zy')
+      joint_kind = JOINT_ZY
+    case ('xy')
+      joint_kind = JOINT_XY
+    case default
+      call set_fail('chain', 'joint', 'must be ''zy'' (thesis gamma/beta) or ''xy'' (Cardan bending), got '''// &
+                    trim(joint)//'''')
+      return
+    end select
     if (n_bodies < 1) then
       call set_fail('chain', 'n_bodies', 'must be at least 1 (number of rigid bodies)')
       return
@@ -200,6 +212,24 @@ contains
     if (.not. nonnegative('springs', 'd_gamma', d_gamma)) return
     if (.not. nonnegative('springs', 'd_beta', d_beta)) return
     deck%c_beta = c_beta
+    if (joint_kind == JOINT_XY) then
+      ! Both Cardan angles bend the cable: c_beta/d_beta act on both.  The thesis's gamma
+      ! spring has no coordinate here, and rest angles or start rates in gamma/beta would
+      ! need a twist the joint does not have: refuse rather than guess.
+      if (c_gamma /= 0.0_dp .or. d_gamma /= 0.0_dp) then
+        call set_fail('springs', 'c_gamma', 'with joint = ''xy'' both bending angles use c_beta and d_beta; '// &
+                      'c_gamma and d_gamma have no coordinate (set them to 0)')
+        return
+      end if
+      if (any(rest_gamma_deg(1:n) /= 0.0_dp) .or. any(rest_beta_deg(1:n) /= 0.0_dp)) then
+        call set_fail('springs', 'rest_beta_deg', 'rest angles are not supported with joint = ''xy'' (straight rest)')
+        return
+      end if
+      if (any(gamma_rate_deg(1:n) /= 0.0_dp) .or. any(beta_rate_deg(1:n) /= 0.0_dp)) then
+        call set_fail('shape', 'beta_rate_deg', 'start rates are not supported with joint = ''xy''')
+        return
+      end if
+    end if
 
     active = .false.; from_start = .false.; position = UNSET; clamp_gamma = UNSET; clamp_beta = UNSET
     if (.not. read_clamp()) return
@@ -243,7 +273,7 @@ contains
     locked = .false.
     locked(1) = (first_body == 'clamped')
     lengths = lbody; radii = radius; masses = mbody
-    call chain_allocate(deck%model%chain, n, lengths, radii, masses, locked)
+    call chain_allocate(deck%model%chain, n, lengths, radii, masses, locked, joint_kind)
     deck%model%chain%locked_angles(1, :) = gamma_deg(1:n)*DEG
     deck%model%chain%locked_angles(2, :) = beta_deg(1:n)*DEG
     nq = deck%model%chain%n_coords
@@ -251,10 +281,14 @@ contains
     do j = 1, n
       i0 = deck%model%chain%first_coord(j)
       if (i0 == 0) cycle
-      deck%q0(i0:i0 + 1) = [gamma_deg(j), beta_deg(j)]*DEG
+      deck%q0(i0:i0 + 1) = angles_from_thesis(joint_kind, [gamma_deg(j), beta_deg(j)]*DEG)
       deck%v0(i0:i0 + 1) = [gamma_rate_deg(j), beta_rate_deg(j)]*DEG
       deck%model%chain%stiffness(i0:i0 + 1) = [c_gamma, c_beta]            ! eq. 4.79-4.85
       deck%model%chain%damping(i0:i0 + 1) = [d_gamma, d_beta]
+      if (joint_kind == JOINT_XY) then
+        deck%model%chain%stiffness(i0:i0 + 1) = c_beta
+        deck%model%chain%damping(i0:i0 + 1) = d_beta
+      end if
       deck%model%chain%rest(i0:i0 + 1) = [rest_gamma_deg(j), rest_beta_deg(j)]*DEG
     end do
     deck%model%loads%gravity = gravity

@@ -10,17 +10,25 @@
 !>                     frame's own rotation (that part, w_parent x w_rel, is generic).
 !> The thesis's joint (chapter 4.1.1) is JOINT_ZY: gamma about the parent's z, then
 !> beta about the new y.  It is singular in meaning (not in the mass matrix) where
-!> beta = 0: gamma is then a twist and the bending direction is undefined.  A further
-!> parametrisation (e.g. three angles) is added by extending the select-case blocks.
+!> beta = 0: gamma is then a twist and the bending direction is undefined.
+!> JOINT_XY is the singularity-free alternative of the thesis's outlook (chapter 6): two
+!> Cardan bending angles, phi about the parent's x axis, then theta about the new y axis.
+!> Its singularity (theta = +-90 deg, a right-angle kink) lies far outside the bending a
+!> cable segment can take, while beta = 0 (a straight cable) is the common case.  Tables
+!> still print the thesis's gamma/beta of the body axis (thesis_angles).  A further
+!> parametrisation (e.g. with a twist angle) is added by extending the select-case blocks.
 module rotorcable_joint
   use rotorcable_kinds, only: dp
-  use rotorcable_rotations, only: rot_y, rot_z, cross
+  use rotorcable_rotations, only: rot_x, rot_y, rot_z, cross
   implicit none
   private
-  public :: JOINT_ZY, joint_ndof, joint_rotation, joint_axes, joint_bias, joint_name
+  public :: JOINT_ZY, JOINT_XY, joint_ndof, joint_rotation, joint_axes, joint_bias, joint_name, &
+            thesis_angles, angles_from_thesis
 
   !> Thesis two-angle joint: R_rel = Rz(gamma) Ry(beta), coordinates (gamma, beta).
   integer, parameter :: JOINT_ZY = 1
+  !> Cardan bending joint: R_rel = Rx(phi) Ry(theta), coordinates (phi, theta).
+  integer, parameter :: JOINT_XY = 2
 
 contains
 
@@ -28,7 +36,7 @@ contains
   pure integer function joint_ndof(kind)
     integer, intent(in) :: kind        !< parametrisation (JOINT_ZY)
     select case (kind)
-    case (JOINT_ZY)
+    case (JOINT_ZY, JOINT_XY)
       joint_ndof = 2
     case default
       joint_ndof = 0
@@ -42,6 +50,8 @@ contains
     select case (kind)
     case (JOINT_ZY)
       name = 'zy (gamma about z, then beta about new y; thesis 4.1.1)'
+    case (JOINT_XY)
+      name = 'xy (Cardan bending: phi about x, then theta about new y; thesis chapter 6 outlook)'
     case default
       name = 'unknown'
     end select
@@ -56,6 +66,10 @@ contains
     select case (kind)
     case (JOINT_ZY)
       a = rot_z(angles(1))
+      b = rot_y(angles(2))
+      r_rel = matmul(a, b)
+    case (JOINT_XY)
+      a = rot_x(angles(1))
       b = rot_y(angles(2))
       r_rel = matmul(a, b)
     case default
@@ -74,6 +88,10 @@ contains
     case (JOINT_ZY)
       axes(:, 1) = r_parent(:, 3)
       axes(:, 2) = r_child(:, 2)
+    case (JOINT_XY)
+      ! phi turns about the parent's x axis, theta about the child's y axis.
+      axes(:, 1) = r_parent(:, 1)
+      axes(:, 2) = r_child(:, 2)
     case default
       axes = 0.0_dp
     end select
@@ -88,11 +106,48 @@ contains
     real(dp), intent(in) :: rates(:)          !< joint coordinate rates [rad/s]
     real(dp) :: bias(3)
     select case (kind)
-    case (JOINT_ZY)
+    case (JOINT_ZY, JOINT_XY)
+      ! First axis fixed in the parent, second in the child: same structure for both.
       bias = rates(1)*rates(2)*cross(axes(:, 1), axes(:, 2))
     case default
       bias = 0.0_dp
     end select
   end function joint_bias
+
+  !> The thesis's (gamma, beta) of a joint: direction of the child's axis in the parent
+  !> frame, d = R_rel e_z = (cos g sin b, sin g sin b, cos b) (eq. 4.7/4.8).  For JOINT_ZY
+  !> these are the coordinates themselves; otherwise beta in [0, pi] and gamma = atan2
+  !> (0 for a straight joint, where the thesis's gamma is undefined).
+  pure function thesis_angles(kind, angles) result(gb)
+    integer, intent(in) :: kind        !< parametrisation
+    real(dp), intent(in) :: angles(2)  !< joint coordinates [rad]
+    real(dp) :: gb(2)
+    real(dp) :: r(3, 3)
+    if (kind == JOINT_ZY) then
+      gb = angles
+      return
+    end if
+    r = joint_rotation(kind, angles)
+    gb(2) = acos(max(-1.0_dp, min(1.0_dp, r(3, 3))))
+    gb(1) = 0.0_dp
+    if (abs(r(1, 3)) + abs(r(2, 3)) > 0.0_dp) gb(1) = atan2(r(2, 3), r(1, 3))
+  end function thesis_angles
+
+  !> Joint coordinates that point the child's axis where the thesis's (gamma, beta) do,
+  !> for decks written in the thesis's angles.  JOINT_XY: Rx(phi) Ry(theta) e_z =
+  !> (sin t, -sin p cos t, cos p cos t) = d gives theta = asin(cos g sin b),
+  !> phi = atan2(-sin g sin b, cos b).  (The twist about the axis is the joint's own.)
+  pure function angles_from_thesis(kind, gb) result(angles)
+    integer, intent(in) :: kind        !< parametrisation
+    real(dp), intent(in) :: gb(2)      !< thesis gamma, beta [rad]
+    real(dp) :: angles(2)
+    select case (kind)
+    case (JOINT_XY)
+      angles(2) = asin(max(-1.0_dp, min(1.0_dp, cos(gb(1))*sin(gb(2)))))
+      angles(1) = atan2(-sin(gb(1))*sin(gb(2)), cos(gb(2)))
+    case default
+      angles = gb
+    end select
+  end function angles_from_thesis
 
 end module rotorcable_joint
