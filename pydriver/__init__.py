@@ -13,5 +13,8 @@ Examples
 """
 
 from pydriver.deck import DeckError, RunError, Result, deck_info, run_deck, evaluate_model, shape
+from pydriver.results import load_results
+from pydriver.sweep import SweepError, run_sweep
 
-__all__ = ["DeckError", "RunError", "Result", "deck_info", "run_deck", "evaluate_model", "shape"]
+__all__ = ["DeckError", "RunError", "Result", "deck_info", "run_deck", "evaluate_model", "shape",
+           "load_results", "run_sweep", "SweepError"]
