@@ -254,11 +254,15 @@ def _lock(out: Path):
     except ImportError:          # not POSIX: no locking
         yield
         return
+    import errno
     with open(out / ".sweep.lock", "w") as fh:
         try:
             fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            raise SweepError(f"{out}: another sweep is running in this directory") from None
+        except OSError as exc:
+            if exc.errno in (errno.EAGAIN, errno.EACCES):
+                raise SweepError(f"{out}: another sweep is running in this directory") from None
+            # A file system without locks (some NFS set-ups): run unprotected rather than
+            # refuse; the records stay consistent, only concurrent sweeps are not caught.
         yield
 
 
