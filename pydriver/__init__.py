@@ -21,7 +21,9 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):
     _os.environ.setdefault(_var, "1")
 
 from pydriver.deck import DeckError, RunError, Result, deck_info, run_deck, evaluate_model, shape
+from pydriver.results import load_results
 from pydriver.scene import Scene, scene
+from pydriver.sweep import SweepError, run_sweep
 
-__all__ = ["DeckError", "RunError", "Result", "deck_info", "run_deck", "evaluate_model", "shape", "Scene",
-           "scene"]
+__all__ = ["DeckError", "RunError", "Result", "deck_info", "run_deck", "evaluate_model", "shape",
+           "Scene", "scene", "load_results", "run_sweep", "SweepError"]

@@ -1,4 +1,6 @@
-"""Command line: ``python -m pydriver run DECK [--out DIR] [--plots]``."""
+"""Command line: ``python -m pydriver run DECK [--out DIR] [--plots]``, ``study NAME``,
+``sweep BASE --set GROUP.KEY=VALUES ... --out DIR`` (and ``sweep-task``/``sweep-collect`` for
+Slurm arrays)."""
 
 from __future__ import annotations
 
@@ -22,7 +24,10 @@ def main(argv=None) -> int:
                        help="shapes: rest vs hover plots; cy-sweep: frequency against c_y and the "
                             "flap crossing; refine: first frequency for n = 11, 22, 44, 88")
     study.add_argument("--out", default="results/studies", help="output directory")
+    _add_sweep_parsers(sub)
     args = parser.parse_args(argv)
+    if args.command in ("sweep", "sweep-task", "sweep-collect"):
+        return _sweep_command(args)
     if args.command == "study":
         from pydriver.study import run_study
         print(run_study(args.name, Path(args.out)))
@@ -43,6 +48,74 @@ def main(argv=None) -> int:
               f"max |g| = {s['max_constraint_violation_m']:.2e} m -> {out}")
         print(json.dumps(s["reactions"]))
     return status
+
+
+def _add_sweep_parsers(sub):
+    from pydriver.sweep import GRID_HELP
+    sweep = sub.add_parser(
+        "sweep", help="run a grid of decks made from one base deck (parameter sweep)",
+        description="Expand a grid of --set values into decks DIR/decks/<id>.nml, run them "
+                    "(local process pool, a Dask scheduler, or a Slurm job array) and aggregate "
+                    "each run's results into DIR/sweep.csv and DIR/plots/.  Rerunning the same "
+                    "command resumes an interrupted sweep; finished decks are not run again.",
+        epilog=GRID_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sweep.add_argument("base", help="base deck")
+    sweep.add_argument("--set", dest="sets", action="append", required=True,
+                       metavar="GROUP.KEY=VALUES", help="swept parameter (repeat for a product grid)")
+    sweep.add_argument("--out", required=True, help="sweep directory (resumes if it holds this sweep)")
+    engine = sweep.add_mutually_exclusive_group()
+    engine.add_argument("--jobs", type=int, metavar="N",
+                        help="local worker processes (default: all cores this process may use)")
+    engine.add_argument("--dask", metavar="ADDRESS",
+                        help="run the decks on a running Dask scheduler, e.g. tcp://host:8786 "
+                             "(DIR must be on a file system the workers share)")
+    engine.add_argument("--slurm", action="store_true",
+                        help="write the decks and a Slurm job-array script DIR/sweep.slurm, run "
+                             "nothing, print the sbatch and aggregation commands")
+    sweep.add_argument("--quiet", action="store_true", help="no progress bar")
+    sweep.add_argument("--no-plots", action="store_true", help="do not draw DIR/plots/")
+    sweep.add_argument("--retry-failed", action="store_true",
+                       help="run the decks whose record is an error again")
+    task = sub.add_parser("sweep-task", help="run one grid point of a prepared sweep (Slurm array task)")
+    task.add_argument("out", help="sweep directory")
+    task.add_argument("index", type=int, help="grid point index ($SLURM_ARRAY_TASK_ID)")
+    coll = sub.add_parser("sweep-collect", help="aggregate a sweep's finished runs into sweep.csv and plots")
+    coll.add_argument("out", help="sweep directory")
+    coll.add_argument("--no-plots", action="store_true", help="do not draw DIR/plots/")
+
+
+def _sweep_command(args) -> int:
+    from pydriver.sweep import SweepError, collect, run_point, run_sweep, write_slurm
+    try:
+        if args.command == "sweep-task":
+            rec = run_point(args.out, args.index)
+            state = "done before" if rec["skipped"] else "ok" if rec["error"] is None else "failed"
+            print(f"{rec['id']}: {state}" + (f": {rec['error']}" if rec["error"] else ""))
+            return 0 if rec["error"] is None else 1
+        if args.command == "sweep-collect":
+            status = collect(args.out, plots=not args.no_plots)
+            print(status.line())
+            return 0 if status.ok else 1
+        if args.jobs is not None and args.jobs < 1:
+            raise SweepError(f"--jobs {args.jobs}: needs at least 1")
+        if args.slurm:
+            script, commands = write_slurm(args.base, args.sets, args.out)
+            print(f"wrote the decks and {script} (nothing run)")
+            print(f"submit:                   {commands[0]}")
+            print(f"when all tasks are done:  {commands[1]}")
+            return 0
+        status = run_sweep(args.base, args.sets, args.out, jobs=args.jobs, dask=args.dask,
+                           progress=not args.quiet, plots=not args.no_plots,
+                           retry_failed=args.retry_failed)
+    except (SweepError, FileNotFoundError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    for id_, msg in status.lost.items():
+        print(f"warning: {id_} not run: {msg}", file=sys.stderr)
+    print(status.line())
+    if status.interrupted:
+        return 130
+    return 0 if status.ok else 1
 
 
 if __name__ == "__main__":
