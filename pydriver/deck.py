@@ -167,6 +167,31 @@ def _run_modal(path, info, t0) -> Result:
                   extra={"q": q, "lambda": lam[:nc], "modes": modes, "mode_shapes_q": shapes})
 
 
+def _straight_zy_warnings(path, info, result) -> list:
+    """Warn where the thesis's zy joint sits at beta = 0 in a result.
+
+    There gamma is a twist, so the joint has lost one bending direction: a load across it
+    does no work on any coordinate at first order and is silently carried as if the cable
+    were rigid sideways (docs/model.md, tests/test_hard_cases.py).  ``&chain joint = 'xy'``
+    has no such point.
+    """
+    kinds, free, stat, msg = _core.rc_joint_kinds(path, info["n_bodies"])
+    _check(path, stat, msg=msg)
+    if result.table is not None:
+        beta = np.asarray(result.table["beta_deg"], float)
+    else:
+        beta = np.array([np.min(np.abs(np.sin(np.radians(result.timeseries[f"beta{j + 1}_deg"]))))
+                         for j in range(info["n_bodies"])])
+        beta = np.degrees(np.arcsin(beta))
+    straight = [j + 1 for j in range(info["n_bodies"])
+                if kinds[j] == 1 and free[j] and abs(np.sin(np.radians(beta[j]))) < 1e-6]
+    if not straight:
+        return []
+    return [f"joints {straight} of the thesis's zy parametrisation are straight (beta = 0), where "
+            "gamma is a twist and the joint cannot bend sideways: loads across those joints are "
+            "carried as if the cable were rigid there; use &chain joint = 'xy' (Cardan bending)"]
+
+
 def run_deck(path, out=None, plots: bool = False) -> Result:
     """Run a deck and return its results; write files only when ``out`` is given.
 
@@ -245,6 +270,9 @@ def run_deck(path, out=None, plots: bool = False) -> Result:
             from pydriver.signal import decay_analysis
             signal = f"z{info['pulse_body']}"
             result.summary["decay"] = decay_analysis(t, ts[signal], signal, info["pulse_end"])
+    warnings = _straight_zy_warnings(path, info, result)
+    if warnings:
+        result.summary["warnings"] = warnings
     if out is not None:
         from pydriver.output import write_result
         write_result(result, Path(out), plots=plots)

@@ -20,8 +20,8 @@ module rotorcable_api
   use rotorcable_ode_integrator, only: ode_settings, integrate_ode, ODE_RK8PD, ODE_MSBDF
   implicit none
   private
-  public :: rc_deck_info, rc_start_state, rc_scene, rc_integrate_end, rc_time_kernels, rc_run_static, rc_run_dynamic, &
-            rc_evaluate, rc_shape, rc_run_modal
+  public :: rc_deck_info, rc_joint_kinds, rc_start_state, rc_scene, rc_integrate_end, rc_time_kernels, &
+            rc_run_static, rc_run_dynamic, rc_evaluate, rc_shape, rc_run_modal
 
   real(dp), parameter :: RAD2DEG = 180.0_dp/acos(-1.0_dp)
 
@@ -75,6 +75,23 @@ contains
     pulse_body = deck%model%loads%pulse_body
     pulse_end = deck%model%loads%pulse_end
   end subroutine rc_deck_info
+
+  !> Parametrisation of every joint (1 = thesis zy, 2 = Cardan xy) and whether it is free.
+  subroutine rc_joint_kinds(path, nb, kinds, is_free, stat, msg)
+    character(len=*), intent(in) :: path          !< deck file
+    integer(c_int), intent(in) :: nb              !< bodies
+    integer(c_int), intent(out) :: kinds(nb)      !< joint parametrisation per joint
+    integer(c_int), intent(out) :: is_free(nb)    !< 1 = the joint has coordinates (not "free": f2py C name clash)
+    integer(c_int), intent(out) :: stat           !< 0 = ok
+    character(len=1024), intent(out) :: msg       !< why not
+    type(deck_type) :: deck
+    character(len=64) :: group, key
+    kinds = 0; is_free = 0
+    call open_deck(path, deck, stat, group, key, msg)
+    if (stat /= 0) return
+    kinds = deck%model%chain%joint_kind
+    is_free = merge(0, 1, deck%model%chain%locked)
+  end subroutine rc_joint_kinds
 
   !> Start coordinates and rates of a deck (as written, not projected).
   subroutine rc_start_state(path, nq, q, v, stat, msg)

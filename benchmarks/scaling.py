@@ -1,0 +1,123 @@
+"""Scaling of rotorcable with the number of bodies: closed chain, n = 10 ... 200.
+
+The scene is the UH-60 part 2 cable (thesis Table A.2: 0.59 m, 0.313 kg, both ends clamped)
+cut into n bodies, started at rest in its static equilibrium and excited by the 1 N pulse of
+the decay test; 0.05 s are integrated with IDA (GGL index-2, rtol 1e-6, atol 1e-8).  Each n
+runs in a fresh process (peak memory = that process's max RSS) and reports:
+
+* wall time of the integration alone per simulated second (rc_integrate_end; the start
+  equilibrium and the outputs are not timed), median of ``--repeat`` runs;
+* the cost of one GGL residual, one structured Jacobian and one mass matrix (rc_time_kernels);
+* peak resident memory of the process.
+
+Writes benchmarks/results/scaling.csv and scaling.png and prints the fitted exponents.
+Run:  .venv/bin/python benchmarks/scaling.py   (about two minutes on 2 cores)
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "benchmarks" / "results"
+SIZES = (10, 20, 40, 80, 120, 200)
+
+
+def deck_for(n: int, path: Path) -> Path:
+    from pydriver.study import override_deck
+    bend = 66.0 / (n - 1)
+    return override_deck(ROOT / "inputs" / "uh60_part2_decay.nml", path, {
+        "chain": {"n_bodies": str(n)},
+        "shape": {"gamma_deg": f"90.0, 90.0, {n - 2}*0.0", "beta_deg": f"70.0, {n - 1}*{bend:.6f}"},
+        "loads": {"pulse_body": str(max(2, n // 2))},
+        "solver": {"t_end": "0.05", "dt_out": "0.05"}})
+
+
+def measure_one(n: int, repeat: int) -> dict:
+    """Runs in a child process: one n, returns the measurements as a dict."""
+    import resource
+
+    import pydriver
+    from pydriver import _rotorcable
+    core = _rotorcable.rotorcable_api
+    with tempfile.TemporaryDirectory() as tmp:
+        deck = str(deck_for(n, Path(tmp) / f"n{n}.nml"))
+        info = pydriver.deck_info(deck)
+        nb, nq, nc = info["n_bodies"], info["n_coords"], info["n_constraints"]
+        walls, stats = [], None
+        for _ in range(repeat):
+            (_cm, _tip, _wr, gmax, st, _cpu, wall, stat, msg) = core.rc_integrate_end(
+                deck, 1, 1e-6, 1e-8, -1.0, 0.0, nb, nq)
+            if stat:
+                raise RuntimeError(bytes(msg).decode().strip())
+            walls.append(wall)
+            stats = st
+        n_rep = max(200, 200000 // n)
+        (_r, ns_res, ns_jac, ns_mass, stat, msg) = core.rc_time_kernels(deck, n_rep, 2 * nq + 2 * nc)
+    rss_kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return {"n_bodies": n, "n_unknowns": 2 * nq + 2 * nc, "wall_per_sim_s": float(np.median(walls)) / 0.05,
+            "steps": int(stats[0]), "residual_evals": int(stats[1]), "jacobian_evals": int(stats[2]),
+            "residual_ns": ns_res, "jacobian_ns": ns_jac, "mass_matrix_ns": ns_mass,
+            "peak_rss_mib": rss_kib / 1024.0, "max_g_m": float(gmax)}
+
+
+def slope(x, y) -> float:
+    return float(np.polyfit(np.log(x), np.log(y), 1)[0])
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--sizes", type=int, nargs="+", default=list(SIZES))
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--child", type=int, help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    if args.child:
+        print(json.dumps(measure_one(args.child, args.repeat)))
+        return 0
+    rows = []
+    for n in args.sizes:
+        out = subprocess.run([sys.executable, __file__, "--child", str(n), "--repeat", str(args.repeat)],
+                             capture_output=True, text=True, check=True, cwd=ROOT)
+        row = json.loads(out.stdout.strip().splitlines()[-1])
+        rows.append(row)
+        print(f"n = {n:4d}: {row['wall_per_sim_s']:9.3f} s per simulated s, {row['steps']:5d} steps, "
+              f"residual {row['residual_ns'] / 1e3:8.2f} us, Jacobian {row['jacobian_ns'] / 1e6:8.3f} ms, "
+              f"M {row['mass_matrix_ns'] / 1e3:8.2f} us, peak RSS {row['peak_rss_mib']:.0f} MiB", flush=True)
+    OUT.mkdir(parents=True, exist_ok=True)
+    with open(OUT / "scaling.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    n = np.array([r["n_bodies"] for r in rows], float)
+    big = n >= 20   # asymptotic range
+    fits = {key: slope(n[big], np.array([r[key] for r in rows])[big])
+            for key in ("wall_per_sim_s", "residual_ns", "jacobian_ns", "mass_matrix_ns")}
+    print("fitted exponents (n >= 20): " + ", ".join(f"{k} ~ n^{v:.2f}" for k, v in fits.items()))
+    (OUT / "scaling_exponents.json").write_text(json.dumps(fits, indent=2))
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    for key, label in (("wall_per_sim_s", "wall time per simulated second [s]"),
+                       ("residual_ns", "one GGL residual [ns]"), ("jacobian_ns", "one Jacobian [ns]"),
+                       ("mass_matrix_ns", "one mass matrix [ns]")):
+        ax.loglog(n, [r[key] for r in rows], "o-", label=f"{label}  (~n^{fits[key]:.2f})")
+    ax.set_xlabel("number of bodies n")
+    ax.set_title("rotorcable scaling, closed chain (UH-60 part 2 cut into n bodies)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(OUT / "scaling.png", dpi=120)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,204 @@
+"""Work-precision: error at the end time against CPU time, rotorcable against its peers.
+
+Cases: the six-link dynamic verification (thesis 4.4.2, 2 s) and the UH-60 part 2 decay
+test (thesis 5.4, 1 s, start in the static equilibrium, 1 N pulse for 0.1 s).
+
+Methods (all start from the same consistent state, pydriver.scene / rc_scene):
+
+* ``rotorcable-IDA``: the default route, SUNDIALS IDA on the GGL index-2 DAE, structured
+  Jacobian (Fortran core, rc_integrate_end);
+* ``gsl-rk8pd`` / ``gsl-msbdf``: the thesis's route, index-1 ODE of eq. 3.55/3.58 with
+  Baumgarte stabilisation (w = 50/s), GSL gsl_odeiv2, same Fortran model;
+* ``scipy-DOP853`` / ``scipy-Radau``: the same model in numpy with solve_ivp
+  (benchmarks/peers/scipy_route.py), what a Python user would write;
+* ``exudyn-genalpha``: Exudyn's kinematic tree + generic joint with its default
+  generalized-alpha solver (benchmarks/peers/exudyn_route.py); accuracy knob = fixed step.
+
+Error = max over all CM coordinates at t_end of |x - x_ref| [m], reference = rotorcable-IDA
+at rtol 1e-12 (atol 1e-14); the reference is cross-checked by gsl-rk8pd at rtol 1e-12 and
+that disagreement is reported as the error floor.  Reaction error = max |F, M - ref| at
+t_end.  CPU time = process CPU time of the integration only (no set-up, no outputs),
+median of ``--repeat`` runs for the fast methods, one run for SciPy and Exudyn.
+
+Writes benchmarks/results/work_precision.csv, work_precision.png and the table
+benchmarks/results/work_precision.md (time to reach 1e-6 m and the ratio to rotorcable).
+Run:  .venv/bin/pip install -r benchmarks/requirements.txt
+      .venv/bin/python benchmarks/work_precision.py        (a few minutes on 2 cores)
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "benchmarks" / "results"
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+import pydriver  # noqa: E402
+from pydriver import _rotorcable  # noqa: E402
+
+CORE = _rotorcable.rotorcable_api
+CASES = {"six_link_dynamic": ROOT / "inputs" / "six_link_dynamic.nml",
+         "uh60_part2_decay": ROOT / "inputs" / "uh60_part2_decay.nml"}
+FORTRAN = {"rotorcable-IDA": 1, "gsl-rk8pd": 2, "gsl-msbdf": 3}
+RTOLS = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
+SCIPY_RTOLS = {"scipy-DOP853": (1e-3, 1e-4, 1e-5, 1e-6, 1e-7), "scipy-Radau": (1e-3, 1e-4, 1e-5)}
+EXUDYN_STEPS = (1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4)
+TARGET = 1e-6
+BAUMGARTE = 50.0
+
+
+def fortran_run(deck: Path, method: str, rtol: float, atol: float | None = None) -> dict:
+    info = pydriver.deck_info(deck)
+    nb, nq = info["n_bodies"], info["n_coords"]
+    atol = rtol * 1e-2 if atol is None else atol
+    (cm, tip, wr, gmax, st, cpu, wall, stat, msg) = CORE.rc_integrate_end(
+        str(deck), FORTRAN[method], rtol, atol, -1.0, BAUMGARTE, nb, nq)
+    if stat:
+        return {"status": bytes(msg).decode(errors="replace").strip()}
+    return {"status": "ok", "cm_end": cm, "reactions_end": wr, "cpu_s": cpu, "wall_s": wall,
+            "steps": int(st[0]), "evals": int(st[1]), "gmax": gmax}
+
+
+def median_run(fn, repeat: int) -> dict:
+    runs = [fn() for _ in range(repeat)]
+    best = runs[0]
+    if best["status"] == "ok":
+        best = dict(best)
+        best["cpu_s"] = float(np.median([r["cpu_s"] for r in runs]))
+    return best
+
+
+def peer_modules():
+    peers = {}
+    try:
+        from peers import scipy_route
+        peers.update({m: ("rtol", scipy_route, SCIPY_RTOLS[m]) for m in scipy_route.METHODS})
+    except ImportError as exc:
+        print(f"skipping SciPy route: {exc}", file=sys.stderr)
+    try:
+        from peers import exudyn_route
+        peers["exudyn-genalpha"] = ("step", exudyn_route, EXUDYN_STEPS)
+    except ImportError as exc:
+        print(f"skipping Exudyn: {exc}", file=sys.stderr)
+    return peers
+
+
+def time_to_target(errors, times, target=TARGET) -> float:
+    """CPU time at which the error first reaches ``target``, interpolated in log-log between
+    the measured settings (nan if never reached; the cheapest time if already reached)."""
+    pts = sorted((t, e) for t, e in zip(times, errors) if np.isfinite(e) and np.isfinite(t))
+    if not pts:
+        return float("nan")
+    best = float("nan")
+    for (t0, e0), (t1, e1) in zip(pts, pts[1:]):
+        if e0 > target >= e1 and e1 > 0:
+            s = (np.log(target) - np.log(e0)) / (np.log(e1) - np.log(e0))
+            return float(np.exp(np.log(t0) + s * (np.log(t1) - np.log(t0))))
+    for t, e in pts:
+        if e <= target:
+            return t
+    return best
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--repeat", type=int, default=3, help="repeats of the fast (Fortran) runs")
+    ap.add_argument("--cases", nargs="+", default=list(CASES))
+    ap.add_argument("--no-peers", action="store_true", help="Fortran methods only")
+    args = ap.parse_args(argv)
+    OUT.mkdir(parents=True, exist_ok=True)
+    peers = {} if args.no_peers else peer_modules()
+    rows, floors = [], {}
+    for case in args.cases:
+        deck = CASES[case]
+        t0 = time.perf_counter()
+        ref = fortran_run(deck, "rotorcable-IDA", 1e-12, 1e-14)
+        check = fortran_run(deck, "gsl-rk8pd", 1e-12, 1e-14)
+        if ref["status"] != "ok":
+            raise SystemExit(f"reference failed on {case}: {ref['status']}")
+        floors[case] = float(np.max(np.abs(check["cm_end"] - ref["cm_end"]))) if check["status"] == "ok" else np.nan
+        print(f"{case}: reference in {time.perf_counter() - t0:.1f} s, IDA vs rk8pd at rtol 1e-12 "
+              f"differ by {floors[case]:.1e} m", flush=True)
+
+        def record(method, knob, value, res):
+            ok = res.get("status") == "ok"
+            err = float(np.max(np.abs(np.asarray(res["cm_end"]) - ref["cm_end"]))) if ok else np.nan
+            rerr = (float(np.max(np.abs(np.asarray(res["reactions_end"]) - ref["reactions_end"])))
+                    if ok else np.nan)
+            rows.append({"case": case, "method": method, "knob": knob, "value": value,
+                         "cpu_s": res.get("cpu_s", np.nan) if ok else np.nan, "cm_error_m": err,
+                         "reaction_error": rerr, "status": res.get("status", "?")[:120]})
+            print(f"  {method:16s} {knob}={value:8.1e}  cpu {rows[-1]['cpu_s']:9.4f} s  "
+                  f"error {err:9.2e} m  reactions {rerr:9.2e}  {'' if ok else res.get('status')}", flush=True)
+
+        for method in FORTRAN:
+            for rtol in RTOLS:
+                record(method, "rtol", rtol, median_run(lambda: fortran_run(deck, method, rtol), args.repeat))
+        for method, (knob, module, values) in peers.items():
+            for value in values:
+                try:
+                    res = module.simulate(str(deck), method, value)
+                except Exception as exc:  # a peer failing is a data point, not a crash
+                    res = {"status": f"{type(exc).__name__}: {exc}"}
+                record(method, knob, value, res)
+
+    with open(OUT / "work_precision.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    summary = write_table(rows, floors)
+    plot(rows, floors)
+    print(summary)
+    return 0
+
+
+def write_table(rows, floors) -> str:
+    lines = ["| case | method | CPU time to reach 1e-6 m [s] | ratio to rotorcable-IDA |",
+             "|---|---|---|---|"]
+    for case in dict.fromkeys(r["case"] for r in rows):
+        per = {}
+        for m in dict.fromkeys(r["method"] for r in rows if r["case"] == case):
+            rs = [r for r in rows if r["case"] == case and r["method"] == m]
+            per[m] = time_to_target([r["cm_error_m"] for r in rs], [r["cpu_s"] for r in rs])
+        base = per.get("rotorcable-IDA", np.nan)
+        for m, t in per.items():
+            lines.append(f"| {case} | {m} | {t:.4g} | {t / base:.3g} |")
+    lines.append("")
+    lines.append("Reference error floor (IDA vs rk8pd at rtol 1e-12): "
+                 + ", ".join(f"{c} {f:.1e} m" for c, f in floors.items()))
+    text = "\n".join(lines) + "\n"
+    (OUT / "work_precision.md").write_text(text)
+    return text
+
+
+def plot(rows, floors):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    cases = list(dict.fromkeys(r["case"] for r in rows))
+    fig, axes = plt.subplots(1, len(cases), figsize=(6.2 * len(cases), 4.6), squeeze=False)
+    for ax, case in zip(axes[0], cases):
+        for m in dict.fromkeys(r["method"] for r in rows if r["case"] == case):
+            rs = [r for r in rows if r["case"] == case and r["method"] == m and r["status"] == "ok"]
+            if rs:
+                ax.loglog([r["cpu_s"] for r in rs], [max(r["cm_error_m"], 1e-16) for r in rs], "o-", label=m)
+        ax.axhline(TARGET, color="k", lw=0.6, ls="--")
+        ax.axhline(max(floors.get(case, 1e-16), 1e-16), color="grey", lw=0.6, ls=":")
+        ax.set_xlabel("CPU time of the integration [s]")
+        ax.set_ylabel("max CM error at t_end [m]")
+        ax.set_title(case)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(OUT / "work_precision.png", dpi=120)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
