@@ -17,10 +17,13 @@ module rotorcable_api
   use rotorcable_statics, only: static_result, solve_static
   use rotorcable_dae_integrator, only: solver_stats, integrate, consistent_start, ggl_residual_dense, &
                                        ggl_jacobian_dense
+  use rotorcable_ggl_linear_solver, only: ggl_block_solver, block_factorise, block_solve
+  use rotorcable_linalg, only: dgetrf, dgetrs
   use rotorcable_ode_integrator, only: ode_settings, integrate_ode, ODE_RK8PD, ODE_MSBDF
   implicit none
   private
   public :: rc_deck_info, rc_joint_kinds, rc_start_state, rc_scene, rc_integrate_end, rc_time_kernels, &
+            rc_iteration_matrix, &
             rc_run_static, rc_run_dynamic, rc_evaluate, rc_shape, rc_run_modal
 
   real(dp), parameter :: RAD2DEG = 180.0_dp/acos(-1.0_dp)
@@ -266,6 +269,94 @@ contains
       gmax = maxval(abs(g(1:3)))
     end if
   end subroutine rc_integrate_end
+
+  !> The GGL iteration matrix J = dF/dy + cj dF/dy' at the deck's consistent start (mu = 0)
+  !> and the block (Schur-complement) solution of J x = b for given right-hand sides, for
+  !> the tests (against a dense solve) and the benchmarks: wall time per factorisation and
+  !> per solve, block against LAPACK's dense LU (dgetrf/dgetrs) of the whole matrix.
+  subroutine rc_iteration_matrix(path, cj, n, n_rhs, b, n_rep, jac, x_block, ns_block_factor, &
+                                 ns_block_solve, ns_dense_factor, ns_dense_solve, stat, msg)
+    character(len=*), intent(in) :: path          !< deck file
+    real(c_double), intent(in) :: cj              !< IDA's cj = alpha/h [1/s]
+    integer(c_int), intent(in) :: n, n_rhs        !< GGL unknowns 2 nq + 2 nc, right-hand sides
+    real(c_double), intent(in) :: b(n, n_rhs)     !< right-hand sides
+    integer(c_int), intent(in) :: n_rep           !< repetitions of each timed operation
+    real(c_double), intent(out) :: jac(n, n)      !< iteration matrix
+    real(c_double), intent(out) :: x_block(n, n_rhs) !< block solutions
+    real(c_double), intent(out) :: ns_block_factor, ns_block_solve   !< block: ns per factorisation, per solve
+    real(c_double), intent(out) :: ns_dense_factor, ns_dense_solve   !< dense LU: the same
+    integer(c_int), intent(out) :: stat           !< 0 = ok
+    character(len=1024), intent(out) :: msg       !< why not
+    type(deck_type) :: deck
+    type(error_type) :: error
+    type(ggl_block_solver) :: block
+    character(len=64) :: group, key
+    real(dp), allocatable :: y(:), yd(:), vdot(:), lam(:), lu(:, :), x(:)
+    integer, allocatable :: pivots(:)
+    integer(kind=8) :: k0, k1, rate
+    integer :: nq, nc, i, k, info
+
+    jac = 0.0_dp; x_block = 0.0_dp
+    ns_block_factor = 0.0_dp; ns_block_solve = 0.0_dp; ns_dense_factor = 0.0_dp; ns_dense_solve = 0.0_dp
+    call open_deck(path, deck, stat, group, key, msg)
+    if (stat /= 0) return
+    nq = deck%model%nq; nc = deck%model%nc
+    if (n /= 2*nq + 2*nc) then
+      stat = 2
+      msg = 'n must be 2 nq + 2 nc'
+      return
+    end if
+    allocate (y(n), yd(n), vdot(nq), lam(max(nc, 1)), lu(n, n), x(n), pivots(n))
+    call consistent_start(deck%model, 0.0_dp, deck%q0, deck%v0, vdot, lam(1:nc), error)
+    if (error%code /= 0) then
+      stat = 2
+      msg = error%message
+      return
+    end if
+    y = 0.0_dp; yd = 0.0_dp
+    y(1:nq) = deck%q0; y(nq + 1:2*nq) = deck%v0; y(2*nq + 1:2*nq + nc) = lam(1:nc)
+    yd(1:nq) = deck%v0; yd(nq + 1:2*nq) = vdot
+    call ggl_jacobian_dense(deck%model, 0.0_dp, cj, y, yd, jac)
+    block%nq = nq; block%nc = nc; block%cj = cj
+    allocate (block%k(nq, nq), block%k_pivots(nq), block%kq(nq, nq), block%b1_rows(nq + 2*nc, nq), block%g_t(nq, nc), &
+              block%cq(nc, nq), block%c_rows(2*nc, nq), block%kinv_b(nq, 2*nc), &
+              block%s(2*nc, 2*nc), block%s_pivots(2*nc))
+    call system_clock(k0, rate)
+    do i = 1, max(n_rep, 1)
+      call block_factorise(block, jac, info)
+    end do
+    call system_clock(k1)
+    ns_block_factor = 1.0e9_dp*real(k1 - k0, dp)/real(rate, dp)/max(n_rep, 1)
+    if (info /= 0) then
+      stat = 3
+      msg = 'block factorisation: singular K or S'
+      return
+    end if
+    call system_clock(k0)
+    do i = 1, max(n_rep, 1)
+      do k = 1, n_rhs
+        call block_solve(block, b(:, k), x_block(:, k))
+      end do
+    end do
+    call system_clock(k1)
+    ns_block_solve = 1.0e9_dp*real(k1 - k0, dp)/real(rate, dp)/max(n_rep, 1)/max(n_rhs, 1)
+    call system_clock(k0)
+    do i = 1, max(n_rep, 1)
+      lu = jac
+      call dgetrf(n, n, lu, n, pivots, info)
+    end do
+    call system_clock(k1)
+    ns_dense_factor = 1.0e9_dp*real(k1 - k0, dp)/real(rate, dp)/max(n_rep, 1)
+    call system_clock(k0)
+    do i = 1, max(n_rep, 1)
+      do k = 1, n_rhs
+        x = b(:, k)
+        call dgetrs('N', n, 1, lu, n, pivots, x, n, info)
+      end do
+    end do
+    call system_clock(k1)
+    ns_dense_solve = 1.0e9_dp*real(k1 - k0, dp)/real(rate, dp)/max(n_rep, 1)/max(n_rhs, 1)
+  end subroutine rc_iteration_matrix
 
   !> Cost of the integrator's kernels at the deck's consistent start, timed in a loop
   !> here (no Python call overhead): one GGL residual (inverse dynamics, g, G, G v), one

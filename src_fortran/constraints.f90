@@ -62,14 +62,15 @@ contains
     type(clamp_type), intent(in) :: clamp     !< clamp
     type(chain_state), intent(in) :: st       !< state with current positions
     real(dp), intent(out) :: g_jac(:, :)      !< (6,nq)
-    real(dp) :: t(3, 3), tip(3)
+    real(dp) :: t(3, 3), tip(3), arm(3)
     integer :: j, kk, k
     t = rate_map(orientation_error(clamp, st))
     tip = st%joint_point(:, chain%n_bodies + 1)
     do j = 1, chain%n_bodies
+      arm = tip - st%joint_point(:, j)        ! a local: no heap temporary for cross
       do kk = 1, chain%n_joint_coords(j)
         k = chain%first_coord(j) + kk - 1
-        g_jac(1:3, k) = cross(st%axes(:, kk, j), tip - st%joint_point(:, j))
+        g_jac(1:3, k) = cross(st%axes(:, kk, j), arm)
         g_jac(4:6, k) = matmul(t, st%axes(:, kk, j))
       end do
     end do

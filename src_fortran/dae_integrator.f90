@@ -19,10 +19,15 @@ module rotorcable_dae_integrator
   use rotorcable_constraints, only: clamp_jacobian, clamp_residual
   use rotorcable_ida_binding
   use rotorcable_joint, only: JOINT_ZY
+  use rotorcable_nvector_kernels, only: use_fast_kernels
+  use rotorcable_ggl_linear_solver, only: ggl_block_solver, block_solver_create, block_solver_destroy
   implicit none
   private
   public :: integrator_settings, solver_stats, consistent_start, integrate, ggl_residual_dense, &
-            ggl_jacobian_dense
+            ggl_jacobian_dense, LINEAR_SOLVER_BLOCK, LINEAR_SOLVER_DENSE
+
+  integer, parameter :: LINEAR_SOLVER_BLOCK = 1  !< Schur-complement factorisation (ggl_linear_solver)
+  integer, parameter :: LINEAR_SOLVER_DENSE = 2  !< SUNDIALS's dense LU of the whole matrix
 
   !> Settings of one time integration (from the deck's &solver group).
   type :: integrator_settings
@@ -34,6 +39,8 @@ module rotorcable_dae_integrator
     real(dp) :: h_max = 0.0_dp                !< maximum step [s] (0 = IDA's default)
     integer :: max_steps = 500000             !< step budget of the whole run (a run never hangs)
     logical :: structured_jacobian = .true.   !< own Jacobian (jacobian_ggl) instead of IDA's DQ
+    integer :: linear_solver = LINEAR_SOLVER_BLOCK  !< block needs the structured Jacobian (cj)
+    integer :: jacobian_max_age = 50          !< steps over which the physics Jacobian is kept (CVODE: msbj = 51)
   end type integrator_settings
 
   !> Solver statistics reported in summary.json.
@@ -51,6 +58,14 @@ module rotorcable_dae_integrator
     integer :: nq = 0
     integer :: nc = 0
     integer :: jac_residuals = 0              !< residual evaluations inside ggl_jacobian
+    type(ggl_block_solver), pointer :: block => null()  !< told cj by ggl_jacobian
+    type(c_ptr) :: mem = c_null_ptr           !< IDA memory (step and failure counters)
+    real(dp), allocatable :: physics(:, :)    !< kept physics columns of the Jacobian
+    logical :: physics_valid = .false.
+    integer(c_long) :: physics_step = 0       !< IDA's step count when they were formed
+    integer(c_long) :: physics_fails = 0      !< IDA's convergence failures then
+    integer :: jacobian_max_age = 1           !< steps before they are formed again
+    integer :: physics_evals = 0              !< how often they were formed
     character(len=512) :: ida_message = ''
   end type ida_user_data
 
@@ -127,10 +142,20 @@ contains
     real(dp), intent(in) :: t, cj             !< time [s], IDA's cj = alpha/h [1/s]
     real(dp), intent(in) :: y(:), yd(:)       !< unknowns and their derivatives
     real(dp), intent(out) :: jac(:, :)        !< (n,n) iteration matrix
+    call physics_jacobian(model, t, y, yd, jac)
+    call add_exact_blocks(model, cj, y, jac)
+  end subroutine ggl_jacobian_dense
+
+  !> The smooth physics columns dF/dq and dF/dv of the GGL residual (forward differences at
+  !> fixed y'); they do not depend on cj and may be kept over several steps.
+  subroutine physics_jacobian(model, t, y, yd, jac)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: y(:), yd(:)       !< unknowns and their derivatives
+    real(dp), intent(out) :: jac(:, :)        !< (n,n); multiplier columns left zero
     real(dp) :: r0(size(y)), r1(size(y)), yy(size(y)), inc
-    real(dp) :: g_jac(model%nc, model%nq), m(model%nq, model%nq)
-    integer :: nq, nc, j
-    nq = model%nq; nc = model%nc
+    integer :: nq, j
+    nq = model%nq
     jac = 0.0_dp
     yy = y
     call ggl_residual_dense(model, t, yy, yd, r0)
@@ -142,7 +167,18 @@ contains
       yy(j) = y(j)
       jac(:, j) = (r1 - r0)/inc
     end do
-    ! Exact blocks: the y' terms (cj I, cj M), the multiplier columns and g's rows.
+  end subroutine physics_jacobian
+
+  !> Add the exact blocks to a physics Jacobian: the y' terms (cj I, cj M by the composite
+  !> rigid bodies at q), the multiplier columns -G^T, G^T and g's rows G.
+  subroutine add_exact_blocks(model, cj, y, jac)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: cj                !< IDA's cj = alpha/h [1/s]
+    real(dp), intent(in) :: y(:)              !< unknowns
+    real(dp), intent(inout) :: jac(:, :)      !< (n,n) iteration matrix
+    real(dp) :: g_jac(model%nc, model%nq), m(model%nq, model%nq)
+    integer :: nq, nc, j
+    nq = model%nq; nc = model%nc
     do j = 1, nq
       jac(j, j) = jac(j, j) + cj
     end do
@@ -154,22 +190,41 @@ contains
       jac(1:nq, 2*nq + nc + 1:) = transpose(g_jac)
       jac(2*nq + 1:2*nq + nc, 1:nq) = g_jac
     end if
-  end subroutine ggl_jacobian_dense
+  end subroutine add_exact_blocks
 
-  !> IDALsJacFn: fills SUNDIALS's dense matrix (column-major, n x n) from ggl_jacobian_dense.
+  !> IDALsJacFn: fills SUNDIALS's dense matrix (column-major, n x n).  The physics columns
+  !> (finite differences, 2 nq residuals) are kept from one call to the next unless IDA had
+  !> a convergence failure since, or they are older than jacobian_max_age steps; cj I, cj M
+  !> and the constraint blocks are always exact at the current state.  IDA calls this at
+  !> every linear-solver setup, i.e. whenever cj has changed by more than 25 %, which on a
+  !> smooth stretch happens every few steps while the physics barely moves.
   integer(c_int) function ggl_jacobian(t, cj, yy, yp, rr, jmat, udata, tmp1, tmp2, tmp3) bind(C)
     real(c_double), value :: t, cj
     type(c_ptr), value :: yy, yp, rr, jmat, udata, tmp1, tmp2, tmp3
     type(ida_user_data), pointer :: ud
     real(c_double), pointer :: y(:), yd(:), a(:, :)
+    integer(c_long) :: steps, fails
+    integer(c_int) :: flag
     integer :: n
     call c_f_pointer(udata, ud)
     n = 2*ud%nq + 2*ud%nc
     call c_f_pointer(N_VGetArrayPointer(yy), y, [n])
     call c_f_pointer(N_VGetArrayPointer(yp), yd, [n])
     call c_f_pointer(SUNDenseMatrix_Data(jmat), a, [n, n])
-    call ggl_jacobian_dense(ud%model, t, cj, y, yd, a)
-    ud%jac_residuals = ud%jac_residuals + 2*ud%nq + 1
+    flag = IDAGetNumSteps(ud%mem, steps)
+    flag = IDAGetNumNonlinSolvConvFails(ud%mem, fails)
+    if (.not. ud%physics_valid .or. fails /= ud%physics_fails .or. steps < ud%physics_step .or. &
+        steps - ud%physics_step >= ud%jacobian_max_age) then
+      call physics_jacobian(ud%model, t, y, yd, ud%physics)
+      ud%jac_residuals = ud%jac_residuals + 2*ud%nq + 1
+      ud%physics_evals = ud%physics_evals + 1
+      ud%physics_valid = .true.
+      ud%physics_step = steps
+      ud%physics_fails = fails
+    end if
+    a = ud%physics
+    call add_exact_blocks(ud%model, cj, y, a)
+    if (associated(ud%block)) ud%block%cj = cj
     ggl_jacobian = 0
   end function ggl_jacobian
 
@@ -245,6 +300,8 @@ contains
     type(solver_stats), intent(out) :: stats          !< solver statistics
     type(error_type), intent(inout) :: error          !< status
     type(ida_user_data), target :: ud
+    type(ggl_block_solver), target :: block
+    logical :: use_block
     type(c_ptr) :: ctx, mem, yy, yp, id, atol, mat, ls
     real(c_double), pointer :: y(:), yd(:), idv(:), av(:)
     real(dp) :: q(model%nq), v(model%nq), vdot(model%nq), lambda(max(model%nc, 1))
@@ -268,6 +325,8 @@ contains
     n64 = int(n, c_int64_t)
     yy = N_VNew_Serial(n64, ctx); yp = N_VNew_Serial(n64, ctx)
     id = N_VNew_Serial(n64, ctx); atol = N_VNew_Serial(n64, ctx)
+    call use_fast_kernels(yy); call use_fast_kernels(yp)
+    call use_fast_kernels(id); call use_fast_kernels(atol)
     call c_f_pointer(N_VGetArrayPointer(yy), y, [n])
     call c_f_pointer(N_VGetArrayPointer(yp), yd, [n])
     call c_f_pointer(N_VGetArrayPointer(id), idv, [n])
@@ -283,6 +342,9 @@ contains
     av = settings%atol_multiplier; av(1:2*nq) = settings%atol
 
     mem = IDACreate(ctx)
+    ud%mem = mem
+    ud%jacobian_max_age = settings%jacobian_max_age
+    allocate (ud%physics(n, n))
     call check(IDAInit(mem, c_funloc(ggl_residual), real(t_out(1), c_double), yy, yp), 'IDAInit')
     call check(IDASVtolerances(mem, real(settings%rtol, c_double), atol), 'IDASVtolerances')
     call check(IDASetUserData(mem, c_loc(ud)), 'IDASetUserData')
@@ -290,7 +352,14 @@ contains
     call check(IDASetId(mem, id), 'IDASetId')
     call check(IDASetSuppressAlg(mem, 1_c_int), 'IDASetSuppressAlg')
     mat = SUNDenseMatrix(n64, n64, ctx)
-    ls = SUNLinSol_Dense(yy, mat, ctx)
+    use_block = settings%linear_solver == LINEAR_SOLVER_BLOCK .and. settings%structured_jacobian
+    if (use_block) then
+      call block_solver_create(block, nq, nc, ctx)
+      ud%block => block
+      ls = block%handle
+    else
+      ls = SUNLinSol_Dense(yy, mat, ctx)
+    end if
     call check(IDASetLinearSolver(mem, ls, mat), 'IDASetLinearSolver')
     if (settings%structured_jacobian) call check(IDASetJacFn(mem, c_funloc(ggl_jacobian)), 'IDASetJacFn')
     if (settings%h_max > 0.0_dp) call check(IDASetMaxStep(mem, real(settings%h_max, c_double)), 'IDASetMaxStep')
@@ -306,16 +375,16 @@ contains
     end if
 
     if (c_associated(mem)) then
-      flag = IDAGetNumSteps(mem, counter); stats%steps = int(counter + steps_before)
-      flag = IDAGetNumResEvals(mem, counter); stats%residual_evals = int(counter)
-      flag = IDAGetNumLinResEvals(mem, counter)
-      stats%residual_evals = stats%residual_evals + int(counter) + ud%jac_residuals
-      flag = IDAGetNumJacEvals(mem, counter); stats%jacobian_evals = int(counter)
-      flag = IDAGetNumErrTestFails(mem, counter); stats%error_test_failures = int(counter)
-      flag = IDAGetNumNonlinSolvConvFails(mem, counter); stats%convergence_failures = int(counter)
+      call add_counters()
+      stats%steps = int(steps_before)
+      stats%residual_evals = stats%residual_evals + ud%jac_residuals
       call IDAFree(mem)
     end if
-    flag = SUNLinSolFree(ls)
+    if (use_block) then
+      call block_solver_destroy(block)
+    else
+      flag = SUNLinSolFree(ls)
+    end if
     call SUNMatDestroy(mat)
     call N_VDestroy(yy); call N_VDestroy(yp); call N_VDestroy(id); call N_VDestroy(atol)
     flag = SUNContext_Free(ctx)
@@ -331,6 +400,19 @@ contains
         call fatal_error(error, 'SUNDIALS '//what//' failed with flag '//trim(buf)//': '//trim(ud%ida_message))
       end if
     end subroutine check
+
+    !> Add IDA's counters to the run's statistics (IDAReInit zeroes them).  The steps go to
+    !> steps_before, which also serves the step budget.
+    subroutine add_counters()
+      flag = IDAGetNumSteps(mem, counter); steps_before = steps_before + counter
+      flag = IDAGetNumResEvals(mem, counter); stats%residual_evals = stats%residual_evals + int(counter)
+      flag = IDAGetNumLinResEvals(mem, counter); stats%residual_evals = stats%residual_evals + int(counter)
+      flag = IDAGetNumJacEvals(mem, counter); stats%jacobian_evals = stats%jacobian_evals + int(counter)
+      flag = IDAGetNumErrTestFails(mem, counter)
+      stats%error_test_failures = stats%error_test_failures + int(counter)
+      flag = IDAGetNumNonlinSolvConvFails(mem, counter)
+      stats%convergence_failures = stats%convergence_failures + int(counter)
+    end subroutine add_counters
 
     !> IDASolve to t_target within what is left of the run's step budget; a spent budget
     !> becomes an error that says where and, near beta = 0, why.
@@ -378,8 +460,8 @@ contains
             if (error%code /= 0) exit
             ! Restart the multistep history at the discontinuity, and lift the stop time
             ! (SUNDIALS 6.4 has no IDAClearStopTime).
-            flag = IDAGetNumSteps(mem, counter)
-            steps_before = steps_before + counter    ! IDAReInit zeroes IDA's counters
+            call add_counters()                      ! IDAReInit zeroes IDA's counters
+            ud%physics_valid = .false.               ! and the force has jumped
             call check(IDAReInit(mem, tret, yy, yp), 'IDAReInit')
             call check(IDASetStopTime(mem, real(2.0_dp*t_out(size(t_out)) + 1.0_dp, c_double)), 'IDASetStopTime')
             s = s + 1

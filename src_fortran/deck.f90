@@ -11,7 +11,8 @@
 !>   &loads   gravity(3), rotor_rpm, rotor_offset(3), pulse_body, pulse_force(3), pulse_start, pulse_end,
 !>            tip_force(3) (open chains)
 !>   &solver  t_end, dt_out, rtol, atol, atol_multiplier, h_max, max_steps, newton_tol, newton_max_iter,
-!>            static_method ('newton' | 'settle'), settle_tol [rad/s]
+!>            static_method ('newton' | 'settle'), settle_tol [rad/s], linear_solver ('block' | 'dense'),
+!>            jacobian_max_age (steps over which the finite-difference part of the Jacobian is kept)
 !> Every problem is reported with the deck, the group, the key and the reason.
 module rotorcable_deck
   use rotorcable_kinds, only: dp
@@ -21,7 +22,7 @@ module rotorcable_deck
   use rotorcable_model, only: model_type, model_init
   use rotorcable_kinematics, only: chain_state, state_allocate, chain_positions
   use rotorcable_rotations, only: rot_y, rot_z
-  use rotorcable_dae_integrator, only: integrator_settings
+  use rotorcable_dae_integrator, only: integrator_settings, LINEAR_SOLVER_BLOCK, LINEAR_SOLVER_DENSE
   use rotorcable_statics, only: static_settings
   implicit none
   private
@@ -73,7 +74,8 @@ contains
          key_spec('solver', 'atol', 'r'), key_spec('solver', 'atol_multiplier', 'r'), &
          key_spec('solver', 'h_max', 'r'), key_spec('solver', 'max_steps', 'i'), &
          key_spec('solver', 'newton_tol', 'r'), key_spec('solver', 'newton_max_iter', 'i'), &
-         key_spec('solver', 'static_method', 'c'), key_spec('solver', 'settle_tol', 'r')]
+         key_spec('solver', 'static_method', 'c'), key_spec('solver', 'settle_tol', 'r'), &
+         key_spec('solver', 'linear_solver', 'c'), key_spec('solver', 'jacobian_max_age', 'i')]
   end function specs
 
   !> Read and validate a deck.  On failure fail%failed is set with group, key and reason.
@@ -100,8 +102,8 @@ contains
     integer :: pulse_body
     ! &solver
     real(dp) :: t_end, dt_out, rtol, atol, atol_multiplier, h_max, newton_tol
-    integer :: max_steps, newton_max_iter
-    character(len=16) :: static_method
+    integer :: max_steps, newton_max_iter, jacobian_max_age
+    character(len=16) :: static_method, linear_solver
     real(dp) :: settle_tol
 
     namelist /case/ name, analysis, description, start
@@ -109,7 +111,7 @@ contains
     namelist /shape/ gamma_deg, beta_deg, gamma_rate_deg, beta_rate_deg
     namelist /springs/ c_gamma, c_beta, d_gamma, d_beta, rest_gamma_deg, rest_beta_deg
     namelist /solver/ t_end, dt_out, rtol, atol, atol_multiplier, h_max, max_steps, newton_tol, newton_max_iter, &
-                      static_method, settle_tol
+                      static_method, settle_tol, linear_solver, jacobian_max_age
 
     integer :: u, ios, n, j, nq, i0, joint_kind
     character(len=512) :: iomsg
@@ -248,7 +250,8 @@ contains
 
     t_end = 1.0_dp; dt_out = 1.0e-2_dp; rtol = 1.0e-8_dp; atol = 1.0e-10_dp; atol_multiplier = 1.0e4_dp
     h_max = 0.0_dp; max_steps = 500000; newton_tol = 1.0e-10_dp; newton_max_iter = 200
-    static_method = 'newton'; settle_tol = 1.0e-8_dp
+    static_method = 'newton'; settle_tol = 1.0e-8_dp; linear_solver = 'block'
+    jacobian_max_age = deck%integrator%jacobian_max_age
     if (.not. read_group('solver', optional_group=.true.)) return
     if (.not. positive('solver', 't_end', t_end)) return
     if (.not. positive('solver', 'dt_out', dt_out)) return
@@ -262,6 +265,15 @@ contains
       return
     end if
     if (.not. positive('solver', 'settle_tol', settle_tol)) return
+    if (linear_solver /= 'block' .and. linear_solver /= 'dense') then
+      call set_fail('solver', 'linear_solver', 'must be ''block'' (Schur complement, default) or '// &
+                    '''dense'' (SUNDIALS dense LU), got '''//trim(linear_solver)//'''')
+      return
+    end if
+    if (jacobian_max_age < 1) then
+      call set_fail('solver', 'jacobian_max_age', 'must be at least 1 (steps)')
+      return
+    end if
     if (max_steps < 1) then
       call set_fail('solver', 'max_steps', 'must be positive')
       return
@@ -350,6 +362,9 @@ contains
     deck%integrator%atol_multiplier = atol_multiplier
     deck%integrator%h_max = h_max
     deck%integrator%max_steps = max_steps
+    deck%integrator%linear_solver = LINEAR_SOLVER_BLOCK
+    if (linear_solver == 'dense') deck%integrator%linear_solver = LINEAR_SOLVER_DENSE
+    deck%integrator%jacobian_max_age = jacobian_max_age
     deck%statics%tol_force = newton_tol
     deck%statics%max_iterations = newton_max_iter
     deck%settle = (static_method == 'settle')

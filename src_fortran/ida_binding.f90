@@ -6,13 +6,34 @@ module rotorcable_ida_binding
   implicit none
   private
   public :: SUNContext_Create, SUNContext_Free, N_VNew_Serial, N_VDestroy, N_VGetArrayPointer, &
-            SUNDenseMatrix, SUNMatDestroy, SUNLinSol_Dense, SUNLinSolFree, IDACreate, IDAInit, &
+            SUNDenseMatrix, SUNMatDestroy, SUNLinSol_Dense, SUNLinSolFree, SUNLinSolNewEmpty, &
+            SUNLinSolFreeEmpty, IDACreate, IDAInit, &
             IDASVtolerances, IDASetUserData, IDASetId, IDASetSuppressAlg, IDASetLinearSolver, &
             IDASetMaxNumSteps, IDASetMaxStep, IDASetStopTime, IDASolve, IDAReInit, IDAFree, &
             IDAGetNumSteps, IDAGetNumResEvals, IDAGetNumJacEvals, IDAGetNumLinResEvals, &
             IDAGetNumErrTestFails, IDAGetNumNonlinSolvConvFails, IDASetErrHandlerFn, IDA_NORMAL, &
             IDASetJacFn, SUNDenseMatrix_Data, IDAGetNumLinSolvSetups
 
+  public :: sun_linear_solver, sun_linear_solver_ops, SUNLINEARSOLVER_DIRECT, SUNLS_SUCCESS, SUNLS_LUFACT_FAIL
+
+  !> struct _generic_SUNLinearSolver (sundials_linearsolver.h, 6.4): a user-supplied linear
+  !> solver is an empty solver whose content and operation pointers are filled in.
+  type, bind(C) :: sun_linear_solver
+    type(c_ptr) :: content
+    type(c_ptr) :: ops
+    type(c_ptr) :: sunctx
+  end type sun_linear_solver
+
+  !> struct _generic_SUNLinearSolver_Ops, members in the header's order.
+  type, bind(C) :: sun_linear_solver_ops
+    type(c_funptr) :: gettype, getid, setatimes, setpreconditioner, setscalingvectors, &
+                      setzeroguess, initialize, setup, solve, numiters, resnorm, lastflag, &
+                      space, resid, free
+  end type sun_linear_solver_ops
+
+  integer(c_int), parameter :: SUNLINEARSOLVER_DIRECT = 0  !< SUNLinearSolver_Type
+  integer(c_int), parameter :: SUNLS_SUCCESS = 0
+  integer(c_int), parameter :: SUNLS_LUFACT_FAIL = 808     !< positive: IDA retries (recoverable)
   integer(c_int), parameter :: IDA_NORMAL = 1   !< itask of IDASolve: return at tout
 
   interface
@@ -55,6 +76,14 @@ module rotorcable_ida_binding
       import :: c_int, c_ptr
       type(c_ptr), value :: ls
     end function SUNLinSolFree
+    type(c_ptr) function SUNLinSolNewEmpty(ctx) bind(C, name='SUNLinSolNewEmpty')
+      import :: c_ptr
+      type(c_ptr), value :: ctx
+    end function SUNLinSolNewEmpty
+    subroutine SUNLinSolFreeEmpty(ls) bind(C, name='SUNLinSolFreeEmpty')
+      import :: c_ptr
+      type(c_ptr), value :: ls
+    end subroutine SUNLinSolFreeEmpty
     type(c_ptr) function IDACreate(ctx) bind(C, name='IDACreate')
       import :: c_ptr
       type(c_ptr), value :: ctx

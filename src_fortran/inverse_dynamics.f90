@@ -42,6 +42,7 @@ contains
     real(dp), intent(out) :: base_force(3)    !< force of the base on body 1 at P_1 [N]
     real(dp), intent(out) :: base_moment(3)   !< moment of the base on body 1 about P_1 [Nm]
     real(dp) :: f_child(3), n_child(3), f(3), n(3), f_net(3), n_cm(3), w(3), iw(3)
+    real(dp) :: arm_cm(3), arm_link(3)
     integer :: j, k, i0
 
     ! The "child" of the last body is support B: it receives -F_B, -M_B from the chain.
@@ -55,8 +56,11 @@ contains
       n_cm = world_inertia_times(chain, st, j, st%alpha(:, j)) + cross(w, iw)
       ! Wrench of the parent on body j, moment about the joint point P_j.
       f = f_net + f_child
-      n = n_cm + cross(st%cm(:, j) - st%joint_point(:, j), f_net) + n_child &
-          + cross(st%joint_point(:, j + 1) - st%joint_point(:, j), f_child)
+      ! Lever arms as fixed-size locals: an expression argument of cross would be a heap
+      ! temporary (its extent comes from an allocatable component).
+      arm_cm = st%cm(:, j) - st%joint_point(:, j)
+      arm_link = st%joint_point(:, j + 1) - st%joint_point(:, j)
+      n = n_cm + cross(arm_cm, f_net) + n_child + cross(arm_link, f_child)
       if (chain%n_joint_coords(j) > 0) then
         i0 = chain%first_coord(j) - 1
         do k = 1, chain%n_joint_coords(j)

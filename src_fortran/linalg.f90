@@ -4,6 +4,7 @@ module rotorcable_linalg
   implicit none
   private
   public :: solve_dense, solve_least_norm, null_space, solve_spd
+  public :: dgetrf, dgetrs, dgemv   ! factors kept across solves, products (ggl_linear_solver)
 
   interface
     subroutine dgesv(n, nrhs, a, lda, ipiv, b, ldb, info)
@@ -28,6 +29,28 @@ module rotorcable_linalg
       real(dp), intent(out) :: s(*), u(ldu, *), vt(ldvt, *), work(*)
       integer, intent(out) :: info
     end subroutine dgesvd
+    subroutine dgetrf(m, n, a, lda, ipiv, info)
+      import :: dp
+      integer, intent(in) :: m, n, lda
+      real(dp), intent(inout) :: a(lda, *)
+      integer, intent(out) :: ipiv(*), info
+    end subroutine dgetrf
+    subroutine dgetrs(trans, n, nrhs, a, lda, ipiv, b, ldb, info)
+      import :: dp
+      character, intent(in) :: trans
+      integer, intent(in) :: n, nrhs, lda, ldb
+      real(dp), intent(in) :: a(lda, *)
+      integer, intent(in) :: ipiv(*)
+      real(dp), intent(inout) :: b(ldb, *)
+      integer, intent(out) :: info
+    end subroutine dgetrs
+    subroutine dgemv(trans, m, n, alpha, a, lda, x, incx, beta, y, incy)
+      import :: dp
+      character, intent(in) :: trans
+      integer, intent(in) :: m, n, lda, incx, incy
+      real(dp), intent(in) :: alpha, beta, a(lda, *), x(*)
+      real(dp), intent(inout) :: y(*)
+    end subroutine dgemv
     subroutine dpotrf(uplo, n, a, lda, info)
       import :: dp
       character, intent(in) :: uplo
