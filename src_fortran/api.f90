@@ -10,7 +10,7 @@ module rotorcable_api
   use rotorcable_modal, only: modal_analysis
   use rotorcable_model, only: eom_residual, generalized_forces, mass_matrix, constraint_residual, &
                               constraint_jacobian, constraint_bias, constraint_velocity, &
-                              solve_accelerations, reaction_wrenches, total_energy
+                              solve_accelerations, reaction_wrenches, total_energy, sample_state
   use rotorcable_mass_matrix, only: mass_matrix_jourdain
   use rotorcable_kinematics, only: chain_positions, joint_angles
   use rotorcable_joint, only: thesis_angles
@@ -607,8 +607,8 @@ contains
     type(error_type) :: error
     type(solver_stats) :: ss
     real(dp), allocatable :: q_out(:, :), v_out(:, :), vdot(:), lam(:)
-    real(dp) :: ang(nb, 2), c(nb, 3), joints(nb + 1, 3), g(6)
-    integer :: k, nc, info
+    real(dp) :: ang(nb, 2), wr(12)
+    integer :: k, j, nc, info
 
     t = 0.0_dp; q = 0.0_dp; angles_deg = 0.0_dp; cm = 0.0_dp; wrenches = 0.0_dp
     energy = 0.0_dp; gviol = 0.0_dp; stats = 0
@@ -637,23 +637,18 @@ contains
       msg = error%message
       return
     end if
-    lam = 0.0_dp
     do k = 1, nt
       q(k, :) = q_out(:, k)
-      ! Reactions from the multipliers of eq. 3.55/3.57 at the integrated state.
-      call solve_accelerations(deck%model, t(k), q_out(:, k), v_out(:, k), vdot, lam(1:nc), info)
-      call reaction_wrenches(deck%model, t(k), q_out(:, k), v_out(:, k), vdot, lam, wrenches(k, :))
-      energy(k) = total_energy(deck%model, q_out(:, k), v_out(:, k))
-      if (nc > 0) then
-        call constraint_residual(deck%model, q_out(:, k), g)
-        gviol(k) = maxval(abs(g(1:3)))
-      end if
-      call fill_shape(deck, q_out(:, k), ang, c, joints)
-      angles_deg(k, 1::2) = ang(:, 1)
-      angles_deg(k, 2::2) = ang(:, 2)
-      cm(k, 1::3) = c(:, 1)
-      cm(k, 2::3) = c(:, 2)
-      cm(k, 3::3) = c(:, 3)
+      ! Reactions from the multipliers of eq. 3.55/3.57 at the integrated state (IDA's own
+      ! lambda is only Newton-accurate), energy, |g|; model%st then holds the frames of q.
+      call sample_state(deck%model, t(k), q_out(:, k), v_out(:, k), wr, energy(k), gviol(k), info)
+      wrenches(k, :) = wr
+      do j = 1, nb
+        ang(j, :) = thesis_angles(deck%model%chain%joint_kind(j), joint_angles(deck%model%chain, q_out(:, k), j))
+        cm(k, 3*j - 2:3*j) = deck%model%st%cm(:, j)
+      end do
+      angles_deg(k, 1::2) = ang(:, 1)*RAD2DEG
+      angles_deg(k, 2::2) = ang(:, 2)*RAD2DEG
     end do
   end subroutine rc_run_dynamic
 

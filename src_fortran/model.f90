@@ -16,6 +16,7 @@ module rotorcable_model
   public :: model_type, model_init, eom_residual, generalized_forces, mass_matrix, &
             constraint_residual, constraint_jacobian, constraint_bias, constraint_velocity, &
             solve_accelerations, reactions, total_energy, reaction_wrenches, project_positions, &
+            sample_state, &
             project_velocities
 
   !> Everything a run needs to evaluate the equations of motion; the state is workspace.
@@ -28,6 +29,8 @@ module rotorcable_model
     type(chain_state) :: st                   !< kinematic workspace
     real(dp), allocatable :: force(:, :)      !< (3,n) body force workspace
     real(dp), allocatable :: g_jac(:, :)      !< (nc,nq) constraint Jacobian workspace
+    real(dp), allocatable :: zero_q(:)        !< (nq) zeros: vdot = 0 without a temporary
+    real(dp), allocatable :: zero_c(:)        !< (max(nc,1)) zeros: lambda = 0
   end type model_type
 
 contains
@@ -39,20 +42,27 @@ contains
     model%nc = clamp_rows(model%clamp)
     call state_allocate(model%chain, model%st)
     allocate (model%force(3, model%chain%n_bodies), model%g_jac(model%nc, model%nq))
+    allocate (model%zero_q(model%nq), model%zero_c(max(model%nc, 1)))
+    model%zero_q = 0.0_dp
+    model%zero_c = 0.0_dp
   end subroutine model_init
 
   !> Equation-of-motion residual  M vdot - k - G^T lambda  by one inverse-dynamics pass,
   !> O(n), M never formed.  Optionally returns the reaction wrenches at A and B.
-  subroutine eom_residual(model, t, q, v, vdot, lambda, res, wrenches)
+  subroutine eom_residual(model, t, q, v, vdot, lambda, res, wrenches, frames_current)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t                 !< time [s]
     real(dp), intent(in) :: q(:), v(:), vdot(:)  !< coordinates, rates, accelerations
     real(dp), intent(in) :: lambda(:)         !< multipliers (size nc)
     real(dp), intent(out) :: res(:)           !< residual (size nq) [Nm]
     real(dp), intent(out), optional :: wrenches(12)  !< F_A, M_A, F_B, M_B (support on chain)
+    logical, intent(in), optional :: frames_current  !< model%st already holds the frames of q
     real(dp) :: f_b(3), m_b(3), f_a(3), m_a(3)
+    logical :: skip_positions
 
-    call chain_positions(model%chain, q, model%st)
+    skip_positions = .false.
+    if (present(frames_current)) skip_positions = frames_current
+    if (.not. skip_positions) call chain_positions(model%chain, q, model%st)
     call chain_motion(model%chain, v, vdot, model%st)
     call body_forces(model%chain, model%loads, model%st%cm, t, model%force)
     ! The tip carries the clamp wrench (closed chain) or an applied tip force (open chain).
@@ -141,21 +151,27 @@ contains
     real(dp), intent(out) :: lambda(:)        !< multipliers (size nc)
     integer, intent(out) :: info              !< LAPACK status
     real(dp), intent(in), optional :: baumgarte_omega  !< Baumgarte constant w [1/s]
-    real(dp) :: a(model%nq + model%nc, model%nq + model%nc), rhs(model%nq + model%nc), g(model%nc)
-    integer :: nq, nc
+    real(dp) :: a(model%nq + model%nc, model%nq + model%nc), rhs(model%nq + model%nc)
+    integer :: nq, nc, k
     nq = model%nq; nc = model%nc
+    ! One kinematic pass for everything: frames (M, G, g), then the motion at vdot = 0
+    ! (k by inverse dynamics, and Gdot v).
+    call chain_positions(model%chain, q, model%st)
     a = 0.0_dp
-    call mass_matrix(model, q, a(1:nq, 1:nq))
-    call generalized_forces(model, t, q, v, rhs(1:nq))
+    call mass_matrix_crba(model%chain, model%st, a(1:nq, 1:nq))
     if (nc > 0) then
-      call constraint_jacobian(model, q, a(nq + 1:, 1:nq))
+      call clamp_jacobian(model%chain, model%clamp, model%st, a(nq + 1:, 1:nq))
       a(1:nq, nq + 1:) = transpose(a(nq + 1:, 1:nq))
-      call constraint_bias(model, q, v, rhs(nq + 1:))
-      rhs(nq + 1:) = -rhs(nq + 1:)
+    end if
+    call eom_residual(model, t, q, v, model%zero_q, model%zero_c, rhs(1:nq), frames_current=.true.)
+    rhs(1:nq) = -rhs(1:nq)                    ! k(q, v, t)
+    if (nc > 0) then
+      rhs(nq + 1:) = -clamp_bias(model%clamp, model%st)
       if (present(baumgarte_omega)) then
-        call constraint_residual(model, q, g)
-        rhs(nq + 1:) = rhs(nq + 1:) - 2.0_dp*baumgarte_omega*matmul(a(nq + 1:, 1:nq), v) &
-                       - baumgarte_omega**2*g
+        rhs(nq + 1:) = rhs(nq + 1:) - baumgarte_omega**2*clamp_residual(model%clamp, model%st)
+        do k = 1, nq
+          rhs(nq + 1:) = rhs(nq + 1:) - 2.0_dp*baumgarte_omega*a(nq + 1:, k)*v(k)
+        end do
       end if
     end if
     call solve_dense(a, rhs, info)
@@ -188,21 +204,61 @@ contains
     call reaction_wrenches(model, t, q, v, vdot, lambda, wrenches)
   end subroutine reactions
 
+  !> Everything an output sample needs at a state (q, v), in two kinematic passes:
+  !> accelerations and multipliers from eq. 3.55, the support wrenches from the
+  !> Newton-Euler pass with them, the total energy and max |g| of the position rows.
+  !> On return model%st holds the frames of q (CMs for the output tables).
+  subroutine sample_state(model, t, q, v, wrenches, energy, g_max, info)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: q(:), v(:)        !< coordinates and rates
+    real(dp), intent(out) :: wrenches(12)     !< F_A, M_A, F_B, M_B
+    real(dp), intent(out) :: energy           !< total mechanical energy [J]
+    real(dp), intent(out) :: g_max            !< max |g| of the position rows [m]
+    integer, intent(out) :: info              !< LAPACK status of eq. 3.55
+    real(dp) :: vdot(model%nq), lambda(max(model%nc, 1)), res(model%nq), g(6)
+    lambda = 0.0_dp
+    call solve_accelerations(model, t, q, v, vdot, lambda(1:model%nc), info)
+    call eom_residual(model, t, q, v, vdot, lambda, res, wrenches, frames_current=.true.)
+    energy = kinetic_energy(model) + stored_energy(model, q)
+    g_max = 0.0_dp
+    if (model%nc > 0) then
+      g = clamp_residual(model%clamp, model%st)
+      g_max = maxval(abs(g(1:3)))
+    end if
+  end subroutine sample_state
+
+  !> Kinetic energy sum of m v_C^2/2 + w.Theta w/2 from the velocities in model%st.
+  function kinetic_energy(model) result(e)
+    type(model_type), intent(in) :: model     !< model with current velocities
+    real(dp) :: e
+    integer :: j
+    e = 0.0_dp
+    do j = 1, model%chain%n_bodies
+      e = e + 0.5_dp*model%chain%mass(j)*dot_product(model%st%vel_cm(:, j), model%st%vel_cm(:, j)) &
+          + 0.5_dp*dot_product(model%st%omega(:, j), world_inertia_times(model%chain, model%st, j, model%st%omega(:, j)))
+    end do
+  end function kinetic_energy
+
   !> Total mechanical energy: kinetic + gravitational/centrifugal potential + springs.
   function total_energy(model, q, v) result(e)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: q(:), v(:)        !< coordinates and rates
     real(dp) :: e
-    integer :: j
     call chain_positions(model%chain, q, model%st)
-    call chain_motion(model%chain, v, 0.0_dp*v, model%st)
+    call chain_motion(model%chain, v, model%zero_q, model%st)
+    e = kinetic_energy(model) + stored_energy(model, q)
+  end function total_energy
+
+  !> Potential of the springs, gravity and centrifugal field and of a tip force, at the
+  !> frames in model%st.
+  function stored_energy(model, q) result(e)
+    type(model_type), intent(in) :: model     !< model with current frames
+    real(dp), intent(in) :: q(:)              !< coordinates
+    real(dp) :: e
     e = potential_energy(model%chain, model%loads, q, model%st%cm) &
         - dot_product(model%loads%tip_force, model%st%joint_point(:, model%chain%n_bodies + 1))
-    do j = 1, model%chain%n_bodies
-      e = e + 0.5_dp*model%chain%mass(j)*dot_product(model%st%vel_cm(:, j), model%st%vel_cm(:, j)) &
-          + 0.5_dp*dot_product(model%st%omega(:, j), world_inertia_times(model%chain, model%st, j, model%st%omega(:, j)))
-    end do
-  end function total_energy
+  end function stored_energy
 
   !> Project q onto g(q) = 0: the smallest change of the deck's shape that closes the chain.
   !> Levenberg-Marquardt on the closure residual (tip - p_B, (E - I) l_s), which has no

@@ -24,6 +24,8 @@ CASES = [
     (("six_link_dynamic", "clamp_b", {"position": "3.0, 0.2, 0.0"}), "clamp_b", "position", "out of reach"),
     (("six_link_static", "case", {"analysis": "'modal_x'"}), "case", "analysis", "static"),
     (("six_link_static", "chain", {"first_body": "'welded'"}), "chain", "first_body", "clamped"),
+    (("six_link_dynamic", "solver", {"linear_solver": "'lu'"}), "solver", "linear_solver", "block"),
+    (("six_link_dynamic", "solver", {"jacobian_max_age": "0"}), "solver", "jacobian_max_age", "at least 1"),
 ]
 
 
