@@ -6,8 +6,12 @@ the decay test; 0.05 s are integrated with IDA (GGL index-2, rtol 1e-6, atol 1e-
 runs in a fresh process (peak memory = that process's max RSS) and reports:
 
 * wall time of the integration alone per simulated second (rc_integrate_end; the start
-  equilibrium and the outputs are not timed), median of ``--repeat`` runs;
+  equilibrium and the outputs are not timed), median of ``--repeat`` runs, with the default
+  block (Schur-complement) linear solver and, for n <= ``--dense-max``, once with SUNDIALS's
+  dense LU of the whole iteration matrix (``&solver linear_solver = 'dense'``, the "before");
 * the cost of one GGL residual, one structured Jacobian and one mass matrix (rc_time_kernels);
+* one factorisation and one solve of the iteration matrix at cj = 1e4: the block solver
+  against LAPACK's dense LU (dgetrf/dgetrs) of the whole matrix (rc_iteration_matrix);
 * peak resident memory of the process.
 
 Writes benchmarks/results/scaling.csv and scaling.png and prints the fitted exponents.
@@ -41,7 +45,7 @@ def deck_for(n: int, path: Path) -> Path:
         "solver": {"t_end": "0.05", "dt_out": "0.05"}})
 
 
-def measure_one(n: int, repeat: int) -> dict:
+def measure_one(n: int, repeat: int, dense: bool) -> dict:
     """Runs in a child process: one n, returns the measurements as a dict."""
     import resource
 
@@ -54,16 +58,30 @@ def measure_one(n: int, repeat: int) -> dict:
         nb, nq, nc = info["n_bodies"], info["n_coords"], info["n_constraints"]
         walls, stats = [], None
         for _ in range(repeat):
-            (_cm, _tip, _wr, gmax, st, _cpu, wall, stat, msg) = core.rc_integrate_end(
-                deck, 1, 1e-6, 1e-8, -1.0, 0.0, nb, nq)
+            (_cm, _tip, _wr, gmax, _s, st, _cpu, wall, stat, msg) = core.rc_integrate_end(
+                deck, 1, 1e-6, 1e-8, -1.0, 0.0, nb, nq, 2)
             if stat:
                 raise RuntimeError(bytes(msg).decode().strip())
             walls.append(wall)
             stats = st
+        wall_dense = float("nan")
+        if dense:
+            from pydriver.study import override_deck
+            deck_dense = str(override_deck(deck, Path(tmp) / f"n{n}_dense.nml",
+                                           {"solver": {"linear_solver": "'dense'"}}))
+            out = core.rc_integrate_end(deck_dense, 1, 1e-6, 1e-8, -1.0, 0.0, nb, nq, 2)
+            if out[-2]:
+                raise RuntimeError(bytes(out[-1]).decode().strip())
+            wall_dense = out[7] / 0.05
         n_rep = max(200, 200000 // n)
         (_r, ns_res, ns_jac, ns_mass, stat, msg) = core.rc_time_kernels(deck, n_rep, 2 * nq + 2 * nc)
+        rhs = np.random.default_rng(0).standard_normal((2 * nq + 2 * nc, 1))
+        (_j, _x, ns_bf, ns_bs, ns_df, ns_ds, stat, msg) = core.rc_iteration_matrix(
+            deck, 1.0e4, rhs, max(3, 20000 // n))
     rss_kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return {"n_bodies": n, "n_unknowns": 2 * nq + 2 * nc, "wall_per_sim_s": float(np.median(walls)) / 0.05,
+            "wall_per_sim_s_dense": wall_dense, "block_factor_ns": ns_bf, "block_solve_ns": ns_bs,
+            "lapack_dense_factor_ns": ns_df, "lapack_dense_solve_ns": ns_ds,
             "steps": int(stats[0]), "residual_evals": int(stats[1]), "jacobian_evals": int(stats[2]),
             "residual_ns": ns_res, "jacobian_ns": ns_jac, "mass_matrix_ns": ns_mass,
             "peak_rss_mib": rss_kib / 1024.0, "max_g_m": float(gmax)}
@@ -77,18 +95,23 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--sizes", type=int, nargs="+", default=list(SIZES))
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--dense-max", type=int, default=120,
+                    help="largest n also run with the dense linear solver (one run)")
     ap.add_argument("--child", type=int, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.child:
-        print(json.dumps(measure_one(args.child, args.repeat)))
+        print(json.dumps(measure_one(args.child, args.repeat, args.child <= args.dense_max)))
         return 0
     rows = []
     for n in args.sizes:
-        out = subprocess.run([sys.executable, __file__, "--child", str(n), "--repeat", str(args.repeat)],
+        out = subprocess.run([sys.executable, __file__, "--child", str(n), "--repeat", str(args.repeat),
+                              "--dense-max", str(args.dense_max)],
                              capture_output=True, text=True, check=True, cwd=ROOT)
         row = json.loads(out.stdout.strip().splitlines()[-1])
         rows.append(row)
-        print(f"n = {n:4d}: {row['wall_per_sim_s']:9.3f} s per simulated s, {row['steps']:5d} steps, "
+        print(f"n = {n:4d}: {row['wall_per_sim_s']:9.3f} s per simulated s (dense LU "
+              f"{row['wall_per_sim_s_dense']:9.3f}), {row['steps']:5d} steps, "
+              f"factor block/LAPACK {row['block_factor_ns'] / 1e3:8.1f}/{row['lapack_dense_factor_ns'] / 1e3:8.1f} us, "
               f"residual {row['residual_ns'] / 1e3:8.2f} us, Jacobian {row['jacobian_ns'] / 1e6:8.3f} ms, "
               f"M {row['mass_matrix_ns'] / 1e3:8.2f} us, peak RSS {row['peak_rss_mib']:.0f} MiB", flush=True)
     OUT.mkdir(parents=True, exist_ok=True)
@@ -99,7 +122,8 @@ def main(argv=None) -> int:
     n = np.array([r["n_bodies"] for r in rows], float)
     big = n >= 20   # asymptotic range
     fits = {key: slope(n[big], np.array([r[key] for r in rows])[big])
-            for key in ("wall_per_sim_s", "residual_ns", "jacobian_ns", "mass_matrix_ns")}
+            for key in ("wall_per_sim_s", "residual_ns", "jacobian_ns", "mass_matrix_ns",
+                        "block_factor_ns", "lapack_dense_factor_ns")}
     print("fitted exponents (n >= 20): " + ", ".join(f"{k} ~ n^{v:.2f}" for k, v in fits.items()))
     (OUT / "scaling_exponents.json").write_text(json.dumps(fits, indent=2))
     import matplotlib
@@ -108,8 +132,13 @@ def main(argv=None) -> int:
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
     for key, label in (("wall_per_sim_s", "wall time per simulated second [s]"),
                        ("residual_ns", "one GGL residual [ns]"), ("jacobian_ns", "one Jacobian [ns]"),
-                       ("mass_matrix_ns", "one mass matrix [ns]")):
+                       ("mass_matrix_ns", "one mass matrix [ns]"),
+                       ("block_factor_ns", "block factorisation [ns]"),
+                       ("lapack_dense_factor_ns", "dense LU, LAPACK [ns]")):
         ax.loglog(n, [r[key] for r in rows], "o-", label=f"{label}  (~n^{fits[key]:.2f})")
+    dense = [(r["n_bodies"], r["wall_per_sim_s_dense"]) for r in rows if np.isfinite(r["wall_per_sim_s_dense"])]
+    if dense:
+        ax.loglog(*zip(*dense), "s--", color="grey", label="wall per simulated s, SUNDIALS dense LU (before)")
     ax.set_xlabel("number of bodies n")
     ax.set_title("rotorcable scaling, closed chain (UH-60 part 2 cut into n bodies)")
     ax.grid(True, which="both", alpha=0.3)

@@ -23,7 +23,7 @@ module rotorcable_api
   implicit none
   private
   public :: rc_deck_info, rc_joint_kinds, rc_start_state, rc_scene, rc_integrate_end, rc_time_kernels, &
-            rc_iteration_matrix, &
+            rc_iteration_matrix, rc_ggl_residual, &
             rc_run_static, rc_run_dynamic, rc_evaluate, rc_shape, rc_run_modal
 
   real(dp), parameter :: RAD2DEG = 180.0_dp/acos(-1.0_dp)
@@ -192,18 +192,20 @@ contains
   !> work-precision comparison: method 1 = IDA on the GGL index-2 DAE (the default route),
   !> 2 = GSL rk8pd and 3 = GSL msbdf on the Baumgarte-stabilised index-1 ODE (thesis route).
   !> Only the integration is timed (not the deck, the start equilibrium or the outputs).
-  subroutine rc_integrate_end(path, method, rtol, atol, h_max, baumgarte_omega, nb, nq, cm_end, tip_end, &
-                              wrenches_end, gmax, stats, cpu_s, wall_s, stat, msg)
+  subroutine rc_integrate_end(path, method, rtol, atol, h_max, baumgarte_omega, nb, nq, ns, cm_end, tip_end, &
+                              wrenches_end, gmax, cm_samples, stats, cpu_s, wall_s, stat, msg)
     character(len=*), intent(in) :: path          !< deck file
     integer(c_int), intent(in) :: method          !< 1 IDA-GGL, 2 GSL rk8pd, 3 GSL msbdf
     real(c_double), intent(in) :: rtol, atol      !< tolerances (atol on q [rad] and v [rad/s])
     real(c_double), intent(in) :: h_max           !< maximum step [s]; < 0 = the deck's, 0 = none
     real(c_double), intent(in) :: baumgarte_omega !< Baumgarte constant of the ODE route [1/s]
     integer(c_int), intent(in) :: nb, nq          !< bodies, coordinates
+    integer(c_int), intent(in) :: ns              !< samples t_k = t_end (k - 1)/(ns - 1), ns >= 2
     real(c_double), intent(out) :: cm_end(nb, 3)  !< centres of mass at t_end [m]
     real(c_double), intent(out) :: tip_end(3)     !< chain tip P_{n+1} at t_end [m]
     real(c_double), intent(out) :: wrenches_end(12) !< F_A, M_A, F_B, M_B at t_end [N, Nm]
     real(c_double), intent(out) :: gmax           !< max |g| position rows at t_end [m]
+    real(c_double), intent(out) :: cm_samples(ns, 3*nb) !< x1, y1, z1, x2, ... at the samples [m]
     integer(c_int), intent(out) :: stats(5)       !< steps, rhs/residual evals, Jacobians, error-test fails, conv fails
     real(c_double), intent(out) :: cpu_s, wall_s  !< CPU and wall time of the integration [s]
     integer(c_int), intent(out) :: stat           !< 0 = ok, 1 = deck error, 2 = run error
@@ -213,12 +215,13 @@ contains
     type(solver_stats) :: ss
     type(ode_settings) :: ode
     character(len=64) :: group, key
-    real(dp) :: t(2), q_out(nq, 2), v_out(nq, 2), vdot(nq), lam(6), ang(nb, 2), joints(nb + 1, 3), g(6)
+    real(dp) :: t(max(ns, 2)), q_out(nq, max(ns, 2)), v_out(nq, max(ns, 2)), vdot(nq), lam(6), ang(nb, 2)
+    real(dp) :: joints(nb + 1, 3), g(6), c(nb, 3)
     real(dp) :: c0, c1
     integer(kind=8) :: k0, k1, rate
-    integer :: info, nc
+    integer :: info, nc, k, m
 
-    cm_end = 0.0_dp; tip_end = 0.0_dp; wrenches_end = 0.0_dp; gmax = 0.0_dp; stats = 0
+    cm_end = 0.0_dp; tip_end = 0.0_dp; wrenches_end = 0.0_dp; gmax = 0.0_dp; stats = 0; cm_samples = 0.0_dp
     cpu_s = 0.0_dp; wall_s = 0.0_dp
     call open_deck(path, deck, stat, group, key, msg)
     if (stat /= 0) return
@@ -229,7 +232,10 @@ contains
       deck%v0 = 0.0_dp
     end if
     if (error%code == 0) then
-      t = [0.0_dp, deck%integrator%t_end]
+      m = max(ns, 2)
+      do k = 1, m
+        t(k) = deck%integrator%t_end*real(k - 1, dp)/real(m - 1, dp)
+      end do
       if (h_max >= 0.0_dp) deck%integrator%h_max = h_max
       deck%integrator%rtol = rtol
       deck%integrator%atol = atol
@@ -259,16 +265,45 @@ contains
       msg = error%message
       return
     end if
-    call fill_shape(deck, q_out(:, 2), ang, cm_end, joints)
+    do k = 1, min(ns, m)
+      call fill_shape(deck, q_out(:, k), ang, c, joints)
+      cm_samples(k, 1::3) = c(:, 1)
+      cm_samples(k, 2::3) = c(:, 2)
+      cm_samples(k, 3::3) = c(:, 3)
+    end do
+    call fill_shape(deck, q_out(:, m), ang, cm_end, joints)
     tip_end = joints(nb + 1, :)
     lam = 0.0_dp
-    call solve_accelerations(deck%model, t(2), q_out(:, 2), v_out(:, 2), vdot, lam(1:nc), info)
-    call reaction_wrenches(deck%model, t(2), q_out(:, 2), v_out(:, 2), vdot, lam, wrenches_end)
+    call solve_accelerations(deck%model, t(m), q_out(:, m), v_out(:, m), vdot, lam(1:nc), info)
+    call reaction_wrenches(deck%model, t(m), q_out(:, m), v_out(:, m), vdot, lam, wrenches_end)
     if (nc > 0) then
-      call constraint_residual(deck%model, q_out(:, 2), g)
+      call constraint_residual(deck%model, q_out(:, m), g)
       gmax = maxval(abs(g(1:3)))
     end if
   end subroutine rc_integrate_end
+
+  !> The GGL residual F(t, y, y') of the integrator at any (y, y'), y = (q, v, lambda, mu),
+  !> for the tests (its constraint rows against the explicitly formed G).
+  subroutine rc_ggl_residual(path, t, n, y, yd, r, stat, msg)
+    character(len=*), intent(in) :: path          !< deck file
+    real(c_double), intent(in) :: t               !< time [s]
+    integer(c_int), intent(in) :: n               !< 2 nq + 2 nc
+    real(c_double), intent(in) :: y(n), yd(n)     !< unknowns and their derivatives
+    real(c_double), intent(out) :: r(n)           !< residual
+    integer(c_int), intent(out) :: stat           !< 0 = ok
+    character(len=1024), intent(out) :: msg       !< why not
+    type(deck_type) :: deck
+    character(len=64) :: group, key
+    r = 0.0_dp
+    call open_deck(path, deck, stat, group, key, msg)
+    if (stat /= 0) return
+    if (n /= 2*deck%model%nq + 2*deck%model%nc) then
+      stat = 2
+      msg = 'n must be 2 nq + 2 nc'
+      return
+    end if
+    call ggl_residual_dense(deck%model, t, y, yd, r)
+  end subroutine rc_ggl_residual
 
   !> The GGL iteration matrix J = dF/dy + cj dF/dy' at the deck's consistent start (mu = 0)
   !> and the block (Schur-complement) solution of J x = b for given right-hand sides, for

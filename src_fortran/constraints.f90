@@ -15,6 +15,7 @@ module rotorcable_constraints
   implicit none
   private
   public :: clamp_type, clamp_rows, clamp_residual, clamp_jacobian, clamp_bias, clamp_velocity, clamp_wrench, &
+            add_jacobian_transpose_times, &
             clamp_closure
 
   !> Far clamp B.
@@ -75,6 +76,29 @@ contains
       end do
     end do
   end subroutine clamp_jacobian
+
+  !> r = r + G^T mu without forming G: column k of G is (a_k x (tip - P_j), T a_k) for the
+  !> axis a_k of coordinate k at joint j, so (G^T mu)_k = a_k . ((tip - P_j) x mu_t + T^T mu_r)
+  !> (the same rows as clamp_jacobian, one 3-vector per body instead of 6 per coordinate).
+  pure subroutine add_jacobian_transpose_times(chain, clamp, st, mu, r)
+    type(chain_type), intent(in) :: chain     !< chain description
+    type(clamp_type), intent(in) :: clamp     !< clamp
+    type(chain_state), intent(in) :: st       !< state with current positions
+    real(dp), intent(in) :: mu(6)             !< (translation, rotation) multipliers
+    real(dp), intent(inout) :: r(:)           !< (nq) vector to add to
+    real(dp) :: t_mu(3), tip(3), arm(3), w(3)
+    integer :: j, kk
+    t_mu = matmul(mu(4:6), rate_map(orientation_error(clamp, st)))     ! T^T mu_r
+    tip = st%joint_point(:, chain%n_bodies + 1)
+    do j = 1, chain%n_bodies
+      if (chain%n_joint_coords(j) == 0) cycle
+      arm = tip - st%joint_point(:, j)
+      w = cross(arm, mu(1:3)) + t_mu
+      do kk = 1, chain%n_joint_coords(j)
+        r(chain%first_coord(j) + kk - 1) = r(chain%first_coord(j) + kk - 1) + dot_product(st%axes(:, kk, j), w)
+      end do
+    end do
+  end subroutine add_jacobian_transpose_times
 
   !> Constraint velocity G qd = (tip velocity, T w_n); needs chain_motion.
   pure function clamp_velocity(clamp, st) result(gv)

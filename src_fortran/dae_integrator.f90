@@ -16,7 +16,7 @@ module rotorcable_dae_integrator
   use rotorcable_errors, only: error_type, fatal_error
   use rotorcable_model, only: model_type, eom_residual, constraint_residual, constraint_jacobian, &
                               solve_accelerations, project_positions, project_velocities, mass_matrix
-  use rotorcable_constraints, only: clamp_jacobian, clamp_residual
+  use rotorcable_constraints, only: clamp_residual, clamp_velocity, add_jacobian_transpose_times
   use rotorcable_ida_binding
   use rotorcable_joint, only: JOINT_ZY
   use rotorcable_nvector_kernels, only: use_fast_kernels
@@ -41,6 +41,7 @@ module rotorcable_dae_integrator
     logical :: structured_jacobian = .true.   !< own Jacobian (jacobian_ggl) instead of IDA's DQ
     integer :: linear_solver = LINEAR_SOLVER_BLOCK  !< block needs the structured Jacobian (cj)
     integer :: jacobian_max_age = 50          !< steps over which the physics Jacobian is kept (CVODE: msbj = 51)
+    logical :: compiled_vector_kernels = .true.  !< nvector_kernels instead of libsundials's own
   end type integrator_settings
 
   !> Solver statistics reported in summary.json.
@@ -122,8 +123,8 @@ contains
     r(1:nq) = yd(1:nq) - y(nq + 1:2*nq)
     call eom_residual(model, t, y(1:nq), y(nq + 1:2*nq), yd(nq + 1:2*nq), y(2*nq + 1:2*nq + nc), &
                       r(nq + 1:2*nq))
-    if (nc > 0) call constraint_rows(model, y(nq + 1:2*nq), y(2*nq + nc + 1:n), r(1:nq), &
-                                     r(2*nq + 1:2*nq + nc), r(2*nq + nc + 1:n))
+    if (nc > 0) call constraint_rows(model, y(2*nq + nc + 1:n), r(1:nq), r(2*nq + 1:2*nq + nc), &
+                                     r(2*nq + nc + 1:n))
   end subroutine ggl_residual_dense
 
   !> Iteration matrix J = dF/dy + cj dF/dy' of the GGL residual, assembled from its
@@ -228,21 +229,17 @@ contains
     ggl_jacobian = 0
   end function ggl_jacobian
 
-  !> Constraint parts of the GGL residual at the current frames: G^T mu added to the
-  !> velocity rows, g(q) and G v.
-  subroutine constraint_rows(model, v, mu, r_q, r_g, r_gv)
+  !> Constraint parts of the GGL residual at the current frames and velocities (left by
+  !> eom_residual): G^T mu added to the q rows, g(q), and G v as the tip velocity and T w_n
+  !> of the chain's own motion (clamp_velocity), so G itself is never formed here.
+  subroutine constraint_rows(model, mu, r_q, r_g, r_gv)
     type(model_type), intent(inout) :: model
-    real(dp), intent(in) :: v(:), mu(:)
+    real(dp), intent(in) :: mu(:)
     real(dp), intent(inout) :: r_q(:)
     real(dp), intent(out) :: r_g(:), r_gv(:)
-    integer :: k
-    call clamp_jacobian(model%chain, model%clamp, model%st, model%g_jac)
     r_g = clamp_residual(model%clamp, model%st)
-    r_gv = 0.0_dp
-    do k = 1, model%nq
-      r_q(k) = r_q(k) + dot_product(mu, model%g_jac(:, k))
-      r_gv = r_gv + model%g_jac(:, k)*v(k)
-    end do
+    r_gv = clamp_velocity(model%clamp, model%st)
+    call add_jacobian_transpose_times(model%chain, model%clamp, model%st, mu, r_q)
   end subroutine constraint_rows
 
   !> Diagnostic appended to a failed run: the thesis's zy joint is singular at beta = 0,
@@ -325,8 +322,10 @@ contains
     n64 = int(n, c_int64_t)
     yy = N_VNew_Serial(n64, ctx); yp = N_VNew_Serial(n64, ctx)
     id = N_VNew_Serial(n64, ctx); atol = N_VNew_Serial(n64, ctx)
-    call use_fast_kernels(yy); call use_fast_kernels(yp)
-    call use_fast_kernels(id); call use_fast_kernels(atol)
+    if (settings%compiled_vector_kernels) then
+      call use_fast_kernels(yy); call use_fast_kernels(yp)
+      call use_fast_kernels(id); call use_fast_kernels(atol)
+    end if
     call c_f_pointer(N_VGetArrayPointer(yy), y, [n])
     call c_f_pointer(N_VGetArrayPointer(yp), yd, [n])
     call c_f_pointer(N_VGetArrayPointer(id), idv, [n])

@@ -12,7 +12,8 @@
 !>            tip_force(3) (open chains)
 !>   &solver  t_end, dt_out, rtol, atol, atol_multiplier, h_max, max_steps, newton_tol, newton_max_iter,
 !>            static_method ('newton' | 'settle'), settle_tol [rad/s], linear_solver ('block' | 'dense'),
-!>            jacobian_max_age (steps over which the finite-difference part of the Jacobian is kept)
+!>            jacobian_max_age (steps over which the finite-difference part of the Jacobian is kept),
+!>            vector_kernels ('compiled' | 'sundials': IDA's N_Vector operations)
 !> Every problem is reported with the deck, the group, the key and the reason.
 module rotorcable_deck
   use rotorcable_kinds, only: dp
@@ -75,7 +76,8 @@ contains
          key_spec('solver', 'h_max', 'r'), key_spec('solver', 'max_steps', 'i'), &
          key_spec('solver', 'newton_tol', 'r'), key_spec('solver', 'newton_max_iter', 'i'), &
          key_spec('solver', 'static_method', 'c'), key_spec('solver', 'settle_tol', 'r'), &
-         key_spec('solver', 'linear_solver', 'c'), key_spec('solver', 'jacobian_max_age', 'i')]
+         key_spec('solver', 'linear_solver', 'c'), key_spec('solver', 'jacobian_max_age', 'i'), &
+         key_spec('solver', 'vector_kernels', 'c')]
   end function specs
 
   !> Read and validate a deck.  On failure fail%failed is set with group, key and reason.
@@ -103,7 +105,7 @@ contains
     ! &solver
     real(dp) :: t_end, dt_out, rtol, atol, atol_multiplier, h_max, newton_tol
     integer :: max_steps, newton_max_iter, jacobian_max_age
-    character(len=16) :: static_method, linear_solver
+    character(len=16) :: static_method, linear_solver, vector_kernels
     real(dp) :: settle_tol
 
     namelist /case/ name, analysis, description, start
@@ -111,9 +113,10 @@ contains
     namelist /shape/ gamma_deg, beta_deg, gamma_rate_deg, beta_rate_deg
     namelist /springs/ c_gamma, c_beta, d_gamma, d_beta, rest_gamma_deg, rest_beta_deg
     namelist /solver/ t_end, dt_out, rtol, atol, atol_multiplier, h_max, max_steps, newton_tol, newton_max_iter, &
-                      static_method, settle_tol, linear_solver, jacobian_max_age
+                      static_method, settle_tol, linear_solver, jacobian_max_age, vector_kernels
 
     integer :: u, ios, n, j, nq, i0, joint_kind
+    logical :: unit_open
     character(len=512) :: iomsg
     logical, allocatable :: locked(:)
     real(dp) :: lbody, radius, mbody, reach, span
@@ -121,10 +124,12 @@ contains
     type(chain_state) :: st
 
     deck%path = path
+    unit_open = .false.
     call scan_deck(path, specs(), fail)
     if (fail%failed) return
 
     open (newunit=u, file=path, status='old', action='read', iostat=ios, iomsg=iomsg)
+    unit_open = (ios == 0)
     if (ios /= 0) then
       call set_fail('', '', 'cannot open deck: '//trim(iomsg))
       return
@@ -251,7 +256,7 @@ contains
     t_end = 1.0_dp; dt_out = 1.0e-2_dp; rtol = 1.0e-8_dp; atol = 1.0e-10_dp; atol_multiplier = 1.0e4_dp
     h_max = 0.0_dp; max_steps = 500000; newton_tol = 1.0e-10_dp; newton_max_iter = 200
     static_method = 'newton'; settle_tol = 1.0e-8_dp; linear_solver = 'block'
-    jacobian_max_age = deck%integrator%jacobian_max_age
+    jacobian_max_age = deck%integrator%jacobian_max_age; vector_kernels = 'compiled'
     if (.not. read_group('solver', optional_group=.true.)) return
     if (.not. positive('solver', 't_end', t_end)) return
     if (.not. positive('solver', 'dt_out', dt_out)) return
@@ -270,6 +275,11 @@ contains
                     '''dense'' (SUNDIALS dense LU), got '''//trim(linear_solver)//'''')
       return
     end if
+    if (vector_kernels /= 'compiled' .and. vector_kernels /= 'sundials') then
+      call set_fail('solver', 'vector_kernels', 'must be ''compiled'' (default) or ''sundials'' '// &
+                    '(the library''s own N_Vector kernels), got '''//trim(vector_kernels)//'''')
+      return
+    end if
     if (jacobian_max_age < 1) then
       call set_fail('solver', 'jacobian_max_age', 'must be at least 1 (steps)')
       return
@@ -279,6 +289,7 @@ contains
       return
     end if
     close (u)
+    unit_open = .false.
 
     ! ---- assemble the model -----------------------------------------------------------
     allocate (locked(n), lengths(n), radii(n), masses(n))
@@ -365,6 +376,7 @@ contains
     deck%integrator%linear_solver = LINEAR_SOLVER_BLOCK
     if (linear_solver == 'dense') deck%integrator%linear_solver = LINEAR_SOLVER_DENSE
     deck%integrator%jacobian_max_age = jacobian_max_age
+    deck%integrator%compiled_vector_kernels = (vector_kernels == 'compiled')
     deck%statics%tol_force = newton_tol
     deck%statics%max_iterations = newton_max_iter
     deck%settle = (static_method == 'settle')
@@ -425,7 +437,6 @@ contains
         call set_fail(group, '', trim(iomsg))
       end if
       ok = .false.
-      close (u)
     end function check_read
 
     logical function positive(group, key, x) result(ok)
@@ -439,7 +450,6 @@ contains
         call set_fail(group, key, 'must be positive, got '//ftoa(x))
         ok = .false.
       end if
-      if (.not. ok) close (u)
     end function positive
 
     logical function nonnegative(group, key, x) result(ok)
@@ -448,12 +458,15 @@ contains
       ok = x >= 0.0_dp
       if (.not. ok) then
         call set_fail(group, key, 'must not be negative, got '//ftoa(x))
-        close (u)
       end if
     end function nonnegative
 
     subroutine set_fail(group, key, reason)
       character(len=*), intent(in) :: group, key, reason
+      ! A rejected deck must not keep its unit open: the same file is read again by the
+      ! next run.  Every failure path comes here, so the unit is closed in one place.
+      if (unit_open) close (u)
+      unit_open = .false.
       fail%failed = .true.
       fail%group = group
       fail%key = key

@@ -26,6 +26,7 @@ CASES = [
     (("six_link_static", "chain", {"first_body": "'welded'"}), "chain", "first_body", "clamped"),
     (("six_link_dynamic", "solver", {"linear_solver": "'lu'"}), "solver", "linear_solver", "block"),
     (("six_link_dynamic", "solver", {"jacobian_max_age": "0"}), "solver", "jacobian_max_age", "at least 1"),
+    (("six_link_dynamic", "solver", {"vector_kernels": "'fast'"}), "solver", "vector_kernels", "compiled"),
 ]
 
 
@@ -94,3 +95,17 @@ def test_no_stop_in_library_fortran():
         for line in f.read_text().splitlines():
             code = line.split("!")[0]
             assert not re.search(r"(^|\s)(error\s+)?stop\b", code, re.I), f"{f.name}: {line}"
+
+
+def test_rejected_deck_can_be_read_again_after_fixing(deck_copy, tmp_path):
+    """A deck rejected after its file was opened (n_bodies = 0 is checked inside the namelist
+    read) must not leave the Fortran unit open: fixing the file and running it again in the
+    same process has to work."""
+    deck = deck_copy("six_link_static", "chain", {"n_bodies": "0"})
+    for _ in range(2):                      # twice: the second rejection needs the file too
+        with pytest.raises(pydriver.DeckError):
+            pydriver.run_deck(deck)
+    from pydriver.study import override_deck
+    override_deck(deck, deck, {"chain": {"n_bodies": "5"}})
+    res = pydriver.run_deck(deck)
+    assert res.summary["reactions"]["B"]["F"][2] == pytest.approx(75.13, abs=0.01)

@@ -252,8 +252,9 @@ class _Model:
         s.show.globalTimers = False
         return s
 
-    def solve(self, step, t_end):
-        """Integrate 0 -> t_end with step h.
+    def solve(self, step, t_end, sample_times=()):
+        """Integrate 0 -> t_end with step h; with ``sample_times`` the solve is also split at
+        those times and the CMs there are kept in ``self.samples`` (time -> (n, 3)).
 
         Returns (cpu_s, accepted steps, Newton iterations, Jacobian updates, rejected tries).
         Exudyn's default ``adaptiveStep`` halves the step after a failed Newton (max 25 its) and
@@ -263,7 +264,12 @@ class _Model:
         bounds = [0.0, t_end]
         if self.load is not None and self.pulse_mode == "restart":
             bounds += [t for t in self.window if 0.0 < t < t_end]
-        bounds = sorted(set(bounds))
+        bounds += [float(t) for t in sample_times if 0.0 < t < t_end]
+        bounds = sorted(set(round(b, 12) for b in bounds))
+        wanted = set(round(float(t), 12) for t in sample_times)
+        self.samples = {}
+        if 0.0 in wanted:
+            self.samples[0.0] = self.cms()
         cpu = 0.0
         n_steps = newton = jacobians = rejected = 0
         s = self.settings()
@@ -286,7 +292,16 @@ class _Model:
             newton += int(it.newtonStepsCount)                # incl. iterations of rejected tries
             jacobians += int(it.newtonJacobiCount)
             rejected += int(it.rejectedModifiedNewtonSteps)
+            if b in wanted:
+                self.samples[b] = self.cms()
         return cpu, n_steps, newton, jacobians, rejected
+
+    def cms(self):
+        """Centres of mass now (sensors evaluated on demand; the clamped body 1 included)."""
+        cms = np.zeros((self.sc.n_bodies, 3))
+        for j in range(self.sc.n_bodies):
+            cms[j] = self.cm1 if j < self.first_free else np.asarray(self.mbs.GetSensorValues(self.s_cm[j]))
+        return cms
 
     # ------------------------------------------------------------------------------------------
     def end_state(self, t):
@@ -339,7 +354,7 @@ _TORQUE_SIGNS = np.array([1.0, -1.0, -1.0])
 
 
 def simulate(deck_path: str, method: str, step: float, *, t_end: float | None = None,
-             pulse: bool = True, pulse_mode: str = "restart") -> dict:
+             pulse: bool = True, pulse_mode: str = "restart", n_samples: int = 0) -> dict:
     """Integrate the deck's scene from its consistent start to t_end with fixed step `step`.
 
     Returns {"method", "step", "cpu_s" (time.process_time() around exu.SolveDynamic only, not
@@ -351,7 +366,9 @@ def simulate(deck_path: str, method: str, step: float, *, t_end: float | None = 
 
     Keyword-only extras (for verification): ``t_end`` overrides the deck's end time, ``pulse=False``
     switches the pulse off, ``pulse_mode="userfunction"`` uses a load user function instead of
-    phase restarts at the window edges.
+    phase restarts at the window edges.  ``n_samples`` > 1 adds "cm_samples": (n_samples, n, 3)
+    CMs at n_samples equally spaced times 0 ... t_end; the solve is then also split at those
+    times (each phase starts from the previous end state, as at the pulse edges).
     """
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; known: {METHODS}")
@@ -364,10 +381,14 @@ def simulate(deck_path: str, method: str, step: float, *, t_end: float | None = 
            "jacobian_updates": 0, "rejected_steps": 0, "status": "ok"}
     try:
         model = _Model(sc, pulse=pulse, pulse_mode=pulse_mode)
-        cpu, n_steps, newton, jacobians, rejected = model.solve(float(step), te)
+        times = np.linspace(0.0, te, n_samples) if n_samples > 1 else ()
+        cpu, n_steps, newton, jacobians, rejected = model.solve(float(step), te, times)
         cms, tip, reac = model.end_state(te)
         out.update(cpu_s=cpu, cm_end=cms, tip_end=tip, reactions_end=reac, n_steps=n_steps,
                    newton_iterations=newton, jacobian_updates=jacobians, rejected_steps=rejected)
+        if n_samples > 1:
+            out["cm_samples"] = np.array([model.samples[round(float(t), 12)] if t > 0 else model.samples[0.0]
+                                          for t in times])
     except Exception as exc:  # noqa: BLE001 - report, do not abort a sweep
         out["status"] = f"{type(exc).__name__}: {exc}"
     return out

@@ -332,7 +332,7 @@ def integrate(model, solver, rtol, t_eval=None):
     return sols, status, calls[0]
 
 
-def simulate(deck_path: str, method: str, rtol: float) -> dict:
+def simulate(deck_path: str, method: str, rtol: float, *, n_samples: int = 0) -> dict:
     """Integrate the deck's scene from its consistent start to t_end.
 
     Returns {"method", "rtol", "cpu_s" (time.process_time() of the integration only, not
@@ -342,7 +342,9 @@ def simulate(deck_path: str, method: str, rtol: float) -> dict:
     "max_constraint_violation_m": max |g_pos| at the output points}.
     Extra keys: "nfev_total" (every right-hand-side call, including Radau's finite-difference
     Jacobian columns), "nsteps" (accepted steps), "t_last" (t_end unless the solver failed:
-    the *_end values are then at t_last), "atol", "baumgarte_tau_s".
+    the *_end values are then at t_last), "atol", "baumgarte_tau_s".  ``n_samples`` > 1 adds
+    "cm_samples": (n_samples, n, 3) CMs at n_samples equally spaced times 0 ... t_end, from
+    solve_ivp's dense output (t_eval).
     """
     import pydriver
 
@@ -353,13 +355,18 @@ def simulate(deck_path: str, method: str, rtol: float) -> dict:
     model = ChainModel(sc)
     atol = ATOL_PER_RTOL * rtol
     t0 = time.process_time()
-    sols, status, calls = integrate(model, solver, rtol)
+    times = np.linspace(0.0, sc.t_end, n_samples) if n_samples > 1 else None
+    sols, status, calls = integrate(model, solver, rtol, t_eval=times)
     cpu = time.process_time() - t0
     nfev = sum(sol.nfev for sol in sols)
     njev = sum(sol.njev for sol in sols)
-    nsteps = sum(sol.t.size - 1 for sol in sols)
+    nsteps = sum((len(sol.sol.ts) if sol.sol is not None else sol.t.size) - 1 for sol in sols)
     ys = [sol.y for sol in sols]
     y = ys[-1][:, -1]             # the state at t_end (at the failure time if status != "ok")
+    samples = None
+    if times is not None:
+        yt = np.concatenate(ys, axis=1).T
+        samples = np.array([model.kinematics(yy[:model.nq], yy[model.nq:])["cm"] for yy in yt])
 
     # post-processing (not timed)
     gmax = 0.0
@@ -380,7 +387,7 @@ def simulate(deck_path: str, method: str, rtol: float) -> dict:
             "max_constraint_violation_m": gmax,
             "nfev_total": int(calls), "nsteps": int(nsteps), "t_last": float(sols[-1].t[-1]),
             "atol": atol,
-            "baumgarte_tau_s": BAUMGARTE_TAU}
+            "baumgarte_tau_s": BAUMGARTE_TAU, **({"cm_samples": samples} if samples is not None else {})}
 
 
 if __name__ == "__main__":
