@@ -10,7 +10,7 @@ comparable on a shared machine:
 3. ``+ block solver`` (``linear_solver = 'block'``, Schur complement, LAPACK);
 4. ``+ Jacobian kept`` (``jacobian_max_age = 50``): the default.
 
-Cases: the UH-60 part 2 decay (1 s, rtol 1e-8 as in the deck), the six-link swing (2 s,
+Cases: the UH-60 part 2 decay (1 s, rtol 1e-8), the six-link swing (2 s,
 rtol 1e-8) and the UH-60 cable cut into 80 bodies (0.05 s, rtol 1e-6, as in scaling.py).
 Median wall time of ``--repeat`` runs.  Writes benchmarks/results/before_after.csv and prints
 a Markdown table.  Run:  .venv/bin/python benchmarks/before_after.py   (about a minute)

@@ -20,6 +20,14 @@ Run:  .venv/bin/python benchmarks/scaling.py   (about two minutes on 2 cores)
 
 from __future__ import annotations
 
+import os
+
+# Single-threaded BLAS for every method (set before numpy loads it): on 2 cores an idle
+# OpenBLAS thread pool spins after each call and its CPU time would be charged to whatever
+# runs next in this process.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
 import argparse
 import csv
 import json

@@ -33,6 +33,14 @@ Run:  .venv/bin/pip install -r benchmarks/requirements.txt
 
 from __future__ import annotations
 
+import os
+
+# Single-threaded BLAS for every method (set before numpy loads it): on 2 cores an idle
+# OpenBLAS thread pool spins after each call and its CPU time would be charged to whatever
+# runs next in this process.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
 import argparse
 import csv
 import sys
@@ -84,18 +92,21 @@ def median_run(fn, repeat: int) -> dict:
     return best
 
 
-def peer_modules():
+def peer_modules(which: str):
+    """The SciPy peers (``which="scipy"``) or Exudyn (``"exudyn"``), each imported only when
+    its turn comes: importing Exudyn slows the Fortran core in the same process by ~1.5x
+    (measured: IDA on the decay case at rtol 1e-3, 8.9 -> 13.2 ms CPU, wall alike), so it
+    is loaded after every other method has run."""
     peers = {}
     try:
-        from peers import scipy_route
-        peers.update({m: ("rtol", scipy_route, SCIPY_RTOLS[m]) for m in scipy_route.METHODS})
+        if which == "scipy":
+            from peers import scipy_route
+            peers.update({m: ("rtol", scipy_route, SCIPY_RTOLS[m]) for m in scipy_route.METHODS})
+        else:
+            from peers import exudyn_route
+            peers["exudyn-genalpha"] = ("step", exudyn_route, EXUDYN_STEPS)
     except ImportError as exc:
-        print(f"skipping SciPy route: {exc}", file=sys.stderr)
-    try:
-        from peers import exudyn_route
-        peers["exudyn-genalpha"] = ("step", exudyn_route, EXUDYN_STEPS)
-    except ImportError as exc:
-        print(f"skipping Exudyn: {exc}", file=sys.stderr)
+        print(f"skipping {which}: {exc}", file=sys.stderr)
     return peers
 
 
@@ -118,13 +129,29 @@ def time_to_target(errors, times, target=TARGET) -> float:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--repeat", type=int, default=3, help="repeats of the fast (Fortran) runs")
+    ap.add_argument("--repeat", type=int, default=5, help="repeats of the fast (Fortran) runs")
     ap.add_argument("--cases", nargs="+", default=list(CASES))
     ap.add_argument("--no-peers", action="store_true", help="Fortran methods only")
     args = ap.parse_args(argv)
     OUT.mkdir(parents=True, exist_ok=True)
-    peers = {} if args.no_peers else peer_modules()
-    rows, floors = [], {}
+    rows, floors, refs = [], {}, {}
+
+    def record(case, method, knob, value, res):
+        ref = refs[case]
+        ok = res.get("status") == "ok"
+        err = float(np.max(np.abs(np.asarray(res["cm_end"]) - ref["cm_end"]))) if ok else np.nan
+        terr = (float(np.max(np.abs(np.asarray(res["cm_samples"]) - ref["cm_samples"])))
+                if ok else np.nan)
+        rerr = (float(np.max(np.abs(np.asarray(res["reactions_end"]) - ref["reactions_end"])))
+                if ok else np.nan)
+        rows.append({"case": case, "method": method, "knob": knob, "value": value,
+                     "cpu_s": res.get("cpu_s", np.nan) if ok else np.nan, "cm_error_m": err,
+                     "cm_traj_error_m": terr,
+                     "reaction_error": rerr, "status": res.get("status", "?")[:120]})
+        print(f"  {case[:10]:10s} {method:16s} {knob}={value:8.1e}  cpu {rows[-1]['cpu_s']:9.4f} s  "
+              f"error {err:9.2e} m  trajectory {terr:9.2e} m  reactions {rerr:9.2e}  "
+              f"{'' if ok else res.get('status')}", flush=True)
+
     for case in args.cases:
         deck = CASES[case]
         t0 = time.perf_counter()
@@ -136,32 +163,20 @@ def main(argv=None) -> int:
                         if check["status"] == "ok" else np.nan)
         print(f"{case}: reference in {time.perf_counter() - t0:.1f} s, IDA vs rk8pd at rtol 1e-12 "
               f"differ by {floors[case]:.1e} m (max over the samples)", flush=True)
-
-        def record(method, knob, value, res):
-            ok = res.get("status") == "ok"
-            err = float(np.max(np.abs(np.asarray(res["cm_end"]) - ref["cm_end"]))) if ok else np.nan
-            terr = (float(np.max(np.abs(np.asarray(res["cm_samples"]) - ref["cm_samples"])))
-                    if ok else np.nan)
-            rerr = (float(np.max(np.abs(np.asarray(res["reactions_end"]) - ref["reactions_end"])))
-                    if ok else np.nan)
-            rows.append({"case": case, "method": method, "knob": knob, "value": value,
-                         "cpu_s": res.get("cpu_s", np.nan) if ok else np.nan, "cm_error_m": err,
-                         "cm_traj_error_m": terr,
-                         "reaction_error": rerr, "status": res.get("status", "?")[:120]})
-            print(f"  {method:16s} {knob}={value:8.1e}  cpu {rows[-1]['cpu_s']:9.4f} s  "
-                  f"error {err:9.2e} m  trajectory {terr:9.2e} m  reactions {rerr:9.2e}  "
-                  f"{'' if ok else res.get('status')}", flush=True)
-
+        refs[case] = ref
         for method in FORTRAN:
             for rtol in RTOLS:
-                record(method, "rtol", rtol, median_run(lambda: fortran_run(deck, method, rtol), args.repeat))
-        for method, (knob, module, values) in peers.items():
-            for value in values:
-                try:
-                    res = module.simulate(str(deck), method, value, n_samples=SAMPLES)
-                except Exception as exc:  # a peer failing is a data point, not a crash
-                    res = {"status": f"{type(exc).__name__}: {exc}"}
-                record(method, knob, value, res)
+                record(case, method, "rtol", rtol,
+                       median_run(lambda: fortran_run(deck, method, rtol), args.repeat))
+    for which in () if args.no_peers else ("scipy", "exudyn"):
+        for method, (knob, module, values) in peer_modules(which).items():
+            for case in args.cases:
+                for value in values:
+                    try:
+                        res = module.simulate(str(CASES[case]), method, value, n_samples=SAMPLES)
+                    except Exception as exc:  # a peer failing is a data point, not a crash
+                        res = {"status": f"{type(exc).__name__}: {exc}"}
+                    record(case, method, knob, value, res)
 
     with open(OUT / "work_precision.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
