@@ -3,10 +3,12 @@
 !> Groups (see inputs/*.nml for commented examples and docs/model.md for meaning):
 !>   &case    name, analysis ('static' | 'dynamic' | 'modal'), start ('shape' | 'equilibrium')
 !>   &chain   n_bodies, total_length, diameter, density | total_mass, first_body ('clamped' | 'pivot'),
-!>            joint ('zy' thesis two-angle joint, default | 'xy' Cardan bending angles)
+!>            joint ('zy' thesis two-angle joint, default | 'xy' Cardan bending angles |
+!>            'xyz' Cardan bending + twist)
 !>   &shape   gamma_deg(:), beta_deg(:) joint angles of the start shape [deg],
 !>            gamma_rate_deg(:), beta_rate_deg(:) start rates [deg/s]
-!>   &springs c_gamma, c_beta [Nm/rad], d_gamma, d_beta [Nms/rad], rest_gamma_deg(:), rest_beta_deg(:)
+!>   &springs c_gamma, c_beta [Nm/rad], d_gamma, d_beta [Nms/rad], rest_gamma_deg(:), rest_beta_deg(:),
+!>            c_twist, d_twist (joint = 'xyz' only)
 !>   &clamp_b active, from_start, position(3) [m], gamma_deg, beta_deg (orientation of the last body)
 !>   &loads   gravity(3), rotor_rpm, rotor_offset(3), pulse_body, pulse_force(3), pulse_start, pulse_end,
 !>            tip_force(3) (open chains)
@@ -19,7 +21,7 @@ module rotorcable_deck
   use rotorcable_kinds, only: dp
   use rotorcable_deck_scan, only: key_spec, scan_deck, scan_failure
   use rotorcable_chain, only: chain_allocate
-  use rotorcable_joint, only: JOINT_ZY, JOINT_XY, angles_from_thesis
+  use rotorcable_joint, only: JOINT_ZY, JOINT_XY, JOINT_XYZ, MAX_JOINT_DOF, angles_from_thesis
   use rotorcable_model, only: model_type, model_init
   use rotorcable_kinematics, only: chain_state, state_allocate, chain_positions
   use rotorcable_rotations, only: rot_y, rot_z
@@ -64,6 +66,7 @@ contains
          key_spec('springs', 'c_gamma', 'r'), key_spec('springs', 'c_beta', 'r'), &
          key_spec('springs', 'd_gamma', 'r'), key_spec('springs', 'd_beta', 'r'), &
          key_spec('springs', 'rest_gamma_deg', 'r'), key_spec('springs', 'rest_beta_deg', 'r'), &
+         key_spec('springs', 'c_twist', 'r'), key_spec('springs', 'd_twist', 'r'), &
          key_spec('clamp_b', 'active', 'l'), key_spec('clamp_b', 'from_start', 'l'), &
          key_spec('clamp_b', 'position', 'r'), key_spec('clamp_b', 'gamma_deg', 'r'), &
          key_spec('clamp_b', 'beta_deg', 'r'), &
@@ -96,6 +99,7 @@ contains
     real(dp) :: gamma_deg(MAX_BODIES), beta_deg(MAX_BODIES), gamma_rate_deg(MAX_BODIES), beta_rate_deg(MAX_BODIES)
     ! &springs
     real(dp) :: c_gamma, c_beta, d_gamma, d_beta, rest_gamma_deg(MAX_BODIES), rest_beta_deg(MAX_BODIES)
+    real(dp) :: c_twist, d_twist, joint_q(MAX_JOINT_DOF)
     ! &clamp_b
     logical :: active, from_start
     real(dp) :: position(3), clamp_gamma, clamp_beta
@@ -111,7 +115,7 @@ contains
     namelist /case/ name, analysis, description, start
     namelist /chain/ n_bodies, total_length, diameter, density, total_mass, first_body, joint
     namelist /shape/ gamma_deg, beta_deg, gamma_rate_deg, beta_rate_deg
-    namelist /springs/ c_gamma, c_beta, d_gamma, d_beta, rest_gamma_deg, rest_beta_deg
+    namelist /springs/ c_gamma, c_beta, d_gamma, d_beta, rest_gamma_deg, rest_beta_deg, c_twist, d_twist
     namelist /solver/ t_end, dt_out, rtol, atol, atol_multiplier, h_max, max_steps, newton_tol, newton_max_iter, &
                       static_method, settle_tol, linear_solver, jacobian_max_age, vector_kernels
 
@@ -163,9 +167,11 @@ contains
       joint_kind = JOINT_ZY
     case ('xy')
       joint_kind = JOINT_XY
+    case ('xyz')
+      joint_kind = JOINT_XYZ
     case default
-      call set_fail('chain', 'joint', 'must be ''zy'' (thesis gamma/beta) or ''xy'' (Cardan bending), got '''// &
-                    trim(joint)//'''')
+      call set_fail('chain', 'joint', 'must be ''zy'' (thesis gamma/beta), ''xy'' (Cardan bending) or '// &
+                    '''xyz'' (Cardan bending + twist), got '''//trim(joint)//'''')
       return
     end select
     if (n_bodies < 1) then
@@ -211,7 +217,7 @@ contains
       return
     end if
 
-    c_gamma = 0.0_dp; c_beta = 0.0_dp; d_gamma = 0.0_dp; d_beta = 0.0_dp
+    c_gamma = 0.0_dp; c_beta = 0.0_dp; d_gamma = 0.0_dp; d_beta = 0.0_dp; c_twist = UNSET; d_twist = 0.0_dp
     rest_gamma_deg = 0.0_dp; rest_beta_deg = 0.0_dp
     if (.not. read_group('springs', optional_group=.true.)) return
     if (.not. nonnegative('springs', 'c_gamma', c_gamma)) return
@@ -219,23 +225,32 @@ contains
     if (.not. nonnegative('springs', 'd_gamma', d_gamma)) return
     if (.not. nonnegative('springs', 'd_beta', d_beta)) return
     deck%c_beta = c_beta
-    if (joint_kind == JOINT_XY) then
+    if (joint_kind == JOINT_XY .or. joint_kind == JOINT_XYZ) then
       ! Both Cardan angles bend the cable: c_beta/d_beta act on both.  The thesis's gamma
-      ! spring has no coordinate here, and rest angles or start rates in gamma/beta would
-      ! need a twist the joint does not have: refuse rather than guess.
+      ! spring has no coordinate here, and rest angles or start rates in gamma/beta do not
+      ! translate into Cardan angles uniquely: refuse rather than guess.
       if (c_gamma /= 0.0_dp .or. d_gamma /= 0.0_dp) then
-        call set_fail('springs', 'c_gamma', 'with joint = ''xy'' both bending angles use c_beta and d_beta; '// &
-                      'c_gamma and d_gamma have no coordinate (set them to 0)')
+        call set_fail('springs', 'c_gamma', 'with joint = '''//trim(joint)//''' both bending angles use '// &
+                      'c_beta and d_beta; c_gamma and d_gamma have no coordinate (set them to 0)')
         return
       end if
       if (any(rest_gamma_deg(1:n) /= 0.0_dp) .or. any(rest_beta_deg(1:n) /= 0.0_dp)) then
-        call set_fail('springs', 'rest_beta_deg', 'rest angles are not supported with joint = ''xy'' (straight rest)')
+        call set_fail('springs', 'rest_beta_deg', 'rest angles are not supported with joint = '''// &
+                      trim(joint)//''' (straight rest)')
         return
       end if
       if (any(gamma_rate_deg(1:n) /= 0.0_dp) .or. any(beta_rate_deg(1:n) /= 0.0_dp)) then
-        call set_fail('shape', 'beta_rate_deg', 'start rates are not supported with joint = ''xy''')
+        call set_fail('shape', 'beta_rate_deg', 'start rates are not supported with joint = '''//trim(joint)//'''')
         return
       end if
+    end if
+    if (joint_kind == JOINT_XYZ) then
+      ! The twist needs its own torsion spring: without one a static shape is undetermined.
+      if (.not. positive('springs', 'c_twist', c_twist)) return
+      if (.not. nonnegative('springs', 'd_twist', d_twist)) return
+    else if (c_twist /= UNSET .or. d_twist /= 0.0_dp) then
+      call set_fail('springs', 'c_twist', 'a twist spring needs the twist coordinate of joint = ''xyz''')
+      return
     end if
 
     active = .false.; from_start = .false.; position = UNSET; clamp_gamma = UNSET; clamp_beta = UNSET
@@ -304,15 +319,23 @@ contains
     do j = 1, n
       i0 = deck%model%chain%first_coord(j)
       if (i0 == 0) cycle
-      deck%q0(i0:i0 + 1) = angles_from_thesis(joint_kind, [gamma_deg(j), beta_deg(j)]*DEG)
+      joint_q = angles_from_thesis(joint_kind, [gamma_deg(j), beta_deg(j)]*DEG)
+      deck%q0(i0:i0 + 1) = joint_q(1:2)
       deck%v0(i0:i0 + 1) = [gamma_rate_deg(j), beta_rate_deg(j)]*DEG
       deck%model%chain%stiffness(i0:i0 + 1) = [c_gamma, c_beta]            ! eq. 4.79-4.85
       deck%model%chain%damping(i0:i0 + 1) = [d_gamma, d_beta]
-      if (joint_kind == JOINT_XY) then
+      if (joint_kind == JOINT_XY .or. joint_kind == JOINT_XYZ) then
         deck%model%chain%stiffness(i0:i0 + 1) = c_beta
         deck%model%chain%damping(i0:i0 + 1) = d_beta
       end if
       deck%model%chain%rest(i0:i0 + 1) = [rest_gamma_deg(j), rest_beta_deg(j)]*DEG
+      if (joint_kind == JOINT_XYZ) then                                     ! untwisted start
+        deck%q0(i0 + 2) = joint_q(3)
+        deck%v0(i0 + 2) = 0.0_dp
+        deck%model%chain%stiffness(i0 + 2) = c_twist
+        deck%model%chain%damping(i0 + 2) = d_twist
+        deck%model%chain%rest(i0 + 2) = 0.0_dp
+      end if
     end do
     deck%model%loads%gravity = gravity
     deck%model%loads%rotor_omega = rotor_rpm*2.0_dp*PI/60.0_dp

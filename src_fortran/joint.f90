@@ -15,20 +15,27 @@
 !> Cardan bending angles, phi about the parent's x axis, then theta about the new y axis.
 !> Its singularity (theta = +-90 deg, a right-angle kink) lies far outside the bending a
 !> cable segment can take, while beta = 0 (a straight cable) is the common case.  Tables
-!> still print the thesis's gamma/beta of the body axis (thesis_angles).  A further
-!> parametrisation (e.g. with a twist angle) is added by extending the select-case blocks.
+!> still print the thesis's gamma/beta of the body axis (thesis_angles).  JOINT_XYZ adds
+!> the twist of the outlook: psi about the child's own (cable) axis after the two Cardan
+!> bending angles, with its own torsion spring and damper; it is singular only where
+!> theta = +-90 deg as well.  A further parametrisation is added by extending the
+!> select-case blocks.
 module rotorcable_joint
   use rotorcable_kinds, only: dp
   use rotorcable_rotations, only: rot_x, rot_y, rot_z, cross
   implicit none
   private
-  public :: JOINT_ZY, JOINT_XY, joint_ndof, joint_rotation, joint_axes, joint_bias, joint_name, &
-            thesis_angles, angles_from_thesis
+  public :: JOINT_ZY, JOINT_XY, JOINT_XYZ, MAX_JOINT_DOF, joint_ndof, joint_rotation, joint_axes, &
+            joint_bias, joint_name, thesis_angles, angles_from_thesis
 
   !> Thesis two-angle joint: R_rel = Rz(gamma) Ry(beta), coordinates (gamma, beta).
   integer, parameter :: JOINT_ZY = 1
   !> Cardan bending joint: R_rel = Rx(phi) Ry(theta), coordinates (phi, theta).
   integer, parameter :: JOINT_XY = 2
+  !> Cardan bending + twist: R_rel = Rx(phi) Ry(theta) Rz(psi), coordinates (phi, theta, psi).
+  integer, parameter :: JOINT_XYZ = 3
+  !> Most coordinates any joint has; joint angle arrays have this size (unused ones zero).
+  integer, parameter :: MAX_JOINT_DOF = 3
 
 contains
 
@@ -38,6 +45,8 @@ contains
     select case (kind)
     case (JOINT_ZY, JOINT_XY)
       joint_ndof = 2
+    case (JOINT_XYZ)
+      joint_ndof = 3
     case default
       joint_ndof = 0
     end select
@@ -52,6 +61,8 @@ contains
       name = 'zy (gamma about z, then beta about new y; thesis 4.1.1)'
     case (JOINT_XY)
       name = 'xy (Cardan bending: phi about x, then theta about new y; thesis chapter 6 outlook)'
+    case (JOINT_XYZ)
+      name = 'xyz (Cardan bending phi, theta, then the twist psi about the body axis)'
     case default
       name = 'unknown'
     end select
@@ -60,9 +71,9 @@ contains
   !> Relative rotation parent -> child (active), eq. 4.7/4.8 transposed.
   pure function joint_rotation(kind, angles) result(r_rel)
     integer, intent(in) :: kind        !< parametrisation
-    real(dp), intent(in) :: angles(2)  !< joint angles [rad] (gamma, beta) for JOINT_ZY
+    real(dp), intent(in) :: angles(MAX_JOINT_DOF)  !< joint angles [rad] (gamma, beta) for JOINT_ZY
     real(dp) :: r_rel(3, 3)
-    real(dp) :: a(3, 3), b(3, 3)
+    real(dp) :: a(3, 3), b(3, 3), c(3, 3), ab(3, 3)
     select case (kind)
     case (JOINT_ZY)
       a = rot_z(angles(1))
@@ -72,6 +83,12 @@ contains
       a = rot_x(angles(1))
       b = rot_y(angles(2))
       r_rel = matmul(a, b)
+    case (JOINT_XYZ)
+      a = rot_x(angles(1))
+      b = rot_y(angles(2))
+      c = rot_z(angles(3))
+      ab = matmul(a, b)
+      r_rel = matmul(ab, c)
     case default
       r_rel = 0.0_dp
     end select
@@ -79,8 +96,9 @@ contains
 
   !> World-frame joint axes, eq. 4.11/4.12: gamma turns about the parent's z axis,
   !> beta about the child's y axis.
-  pure subroutine joint_axes(kind, r_parent, r_child, axes)
+  pure subroutine joint_axes(kind, angles, r_parent, r_child, axes)
     integer, intent(in) :: kind               !< parametrisation
+    real(dp), intent(in) :: angles(MAX_JOINT_DOF)  !< joint angles [rad]
     real(dp), intent(in) :: r_parent(3, 3)    !< world <- parent rotation
     real(dp), intent(in) :: r_child(3, 3)     !< world <- child rotation
     real(dp), intent(out) :: axes(:, :)       !< (3, ndof) unit axes in the world frame
@@ -92,6 +110,12 @@ contains
       ! phi turns about the parent's x axis, theta about the child's y axis.
       axes(:, 1) = r_parent(:, 1)
       axes(:, 2) = r_child(:, 2)
+    case (JOINT_XYZ)
+      ! phi about the parent's x; theta about the y axis of the frame after phi,
+      ! R_parent Rx(phi) e_y; psi about the child's own z (the body axis).
+      axes(:, 1) = r_parent(:, 1)
+      axes(:, 2) = cos(angles(1))*r_parent(:, 2) + sin(angles(1))*r_parent(:, 3)
+      axes(:, 3) = r_child(:, 3)
     case default
       axes = 0.0_dp
     end select
@@ -100,6 +124,8 @@ contains
   !> Joint-intrinsic part of d/dt(axes) qdot.  For JOINT_ZY the gamma axis is fixed in
   !> the parent and the beta axis in the child, so d/dt(a_beta) contains
   !> gammadot a_gamma x a_beta beyond the parent's rotation (derivative of eq. 4.19).
+  !> In general (successive rotations) axis l is fixed in the frame after rotations
+  !> 1 .. l-1, so the bias is sum_l qdot_l sum_{k<l} qdot_k a_k x a_l.
   pure function joint_bias(kind, axes, rates) result(bias)
     integer, intent(in) :: kind               !< parametrisation
     real(dp), intent(in) :: axes(:, :)        !< (3, ndof) world axes from joint_axes
@@ -109,6 +135,9 @@ contains
     case (JOINT_ZY, JOINT_XY)
       ! First axis fixed in the parent, second in the child: same structure for both.
       bias = rates(1)*rates(2)*cross(axes(:, 1), axes(:, 2))
+    case (JOINT_XYZ)
+      bias = rates(1)*rates(2)*cross(axes(:, 1), axes(:, 2)) &
+             + rates(3)*cross(rates(1)*axes(:, 1) + rates(2)*axes(:, 2), axes(:, 3))
     case default
       bias = 0.0_dp
     end select
@@ -120,11 +149,11 @@ contains
   !> (0 for a straight joint, where the thesis's gamma is undefined).
   pure function thesis_angles(kind, angles) result(gb)
     integer, intent(in) :: kind        !< parametrisation
-    real(dp), intent(in) :: angles(2)  !< joint coordinates [rad]
+    real(dp), intent(in) :: angles(MAX_JOINT_DOF)  !< joint coordinates [rad]
     real(dp) :: gb(2)
     real(dp) :: r(3, 3)
     if (kind == JOINT_ZY) then
-      gb = angles
+      gb = angles(1:2)
       return
     end if
     r = joint_rotation(kind, angles)
@@ -136,17 +165,19 @@ contains
   !> Joint coordinates that point the child's axis where the thesis's (gamma, beta) do,
   !> for decks written in the thesis's angles.  JOINT_XY: Rx(phi) Ry(theta) e_z =
   !> (sin t, -sin p cos t, cos p cos t) = d gives theta = asin(cos g sin b),
-  !> phi = atan2(-sin g sin b, cos b).  (The twist about the axis is the joint's own.)
+  !> phi = atan2(-sin g sin b, cos b).  (The twist about the axis is the joint's own:
+  !> JOINT_XYZ starts untwisted, psi = 0.)
   pure function angles_from_thesis(kind, gb) result(angles)
     integer, intent(in) :: kind        !< parametrisation
     real(dp), intent(in) :: gb(2)      !< thesis gamma, beta [rad]
-    real(dp) :: angles(2)
+    real(dp) :: angles(MAX_JOINT_DOF)
+    angles = 0.0_dp
     select case (kind)
-    case (JOINT_XY)
+    case (JOINT_XY, JOINT_XYZ)
       angles(2) = asin(max(-1.0_dp, min(1.0_dp, cos(gb(1))*sin(gb(2)))))
       angles(1) = atan2(-sin(gb(1))*sin(gb(2)), cos(gb(2)))
     case default
-      angles = gb
+      angles(1:2) = gb
     end select
   end function angles_from_thesis
 

@@ -10,7 +10,7 @@
 module rotorcable_kinematics
   use rotorcable_kinds, only: dp
   use rotorcable_chain, only: chain_type
-  use rotorcable_joint, only: joint_rotation, joint_axes, joint_bias
+  use rotorcable_joint, only: joint_rotation, joint_axes, joint_bias, MAX_JOINT_DOF
   use rotorcable_rotations, only: cross
   implicit none
   private
@@ -38,7 +38,7 @@ contains
     type(chain_state), intent(out) :: st       !< state to allocate
     integer :: n
     n = chain%n_bodies
-    allocate (st%rot(3, 3, n), st%joint_point(3, n + 1), st%cm(3, n), st%axes(3, 2, n))
+    allocate (st%rot(3, 3, n), st%joint_point(3, n + 1), st%cm(3, n), st%axes(3, MAX_JOINT_DOF, n))
     allocate (st%omega(3, n), st%alpha(3, n), st%vel_joint(3, n + 1), st%acc_joint(3, n + 1))
     allocate (st%vel_cm(3, n), st%acc_cm(3, n))
     st%axes = 0.0_dp
@@ -49,11 +49,12 @@ contains
     type(chain_type), intent(in) :: chain      !< chain description
     real(dp), intent(in) :: q(:)               !< generalized coordinates [rad]
     integer, intent(in) :: j                   !< joint index
-    real(dp) :: angles(2)
+    real(dp) :: angles(MAX_JOINT_DOF)
+    angles = 0.0_dp
     if (chain%locked(j)) then
-      angles = chain%locked_angles(:, j)
+      angles(1:2) = chain%locked_angles(:, j)
     else
-      angles = q(chain%first_coord(j):chain%first_coord(j) + 1)
+      angles(1:chain%n_joint_coords(j)) = q(chain%first_coord(j):chain%first_coord(j) + chain%n_joint_coords(j) - 1)
     end if
   end function joint_angles
 
@@ -63,17 +64,18 @@ contains
     real(dp), intent(in) :: q(:)               !< generalized coordinates [rad]
     type(chain_state), intent(inout) :: st     !< state (positions filled)
     ! Explicit-shape locals let the compiler inline the 3x3 products (no library matmul).
-    real(dp) :: r_parent(3, 3), r_rel(3, 3), r_child(3, 3)
+    real(dp) :: r_parent(3, 3), r_rel(3, 3), r_child(3, 3), angles(MAX_JOINT_DOF)
     integer :: j, nd
 
     r_parent = chain%base_rotation
     st%joint_point(:, 1) = chain%base_position
     do j = 1, chain%n_bodies
-      r_rel = joint_rotation(chain%joint_kind(j), joint_angles(chain, q, j))
+      angles = joint_angles(chain, q, j)
+      r_rel = joint_rotation(chain%joint_kind(j), angles)
       r_child = matmul(r_parent, r_rel)
       st%rot(:, :, j) = r_child
       nd = chain%n_joint_coords(j)
-      if (nd > 0) call joint_axes(chain%joint_kind(j), r_parent, r_child, st%axes(:, 1:nd, j))
+      if (nd > 0) call joint_axes(chain%joint_kind(j), angles, r_parent, r_child, st%axes(:, 1:nd, j))
       st%cm(:, j) = st%joint_point(:, j) + 0.5_dp*chain%length(j)*r_child(:, 3)
       st%joint_point(:, j + 1) = st%joint_point(:, j) + chain%length(j)*r_child(:, 3)
       r_parent = r_child
