@@ -108,7 +108,10 @@ contains
     call c_f_pointer(N_VGetArrayPointer(yp), yd, [n])
     call c_f_pointer(N_VGetArrayPointer(rr), r, [n])
     call ggl_residual_dense(ud%model, t, y, yd, r)
+    ! A non-finite residual (a state far off, an overflow) is a recoverable failure: IDA then
+    ! cuts the step (SUNDIALS's examples; returning 0 would feed NaN into the Newton update).
     ggl_residual = 0
+    if (.not. all(abs(r) <= huge(1.0_dp))) ggl_residual = 1
   end function ggl_residual
 
   !> The GGL residual on plain arrays, y = (q, v, lambda, mu).  One kinematic pass serves
@@ -242,32 +245,56 @@ contains
     call add_jacobian_transpose_times(model%chain, model%clamp, model%st, mu, r_q)
   end subroutine constraint_rows
 
-  !> Diagnostic appended to a failed run: the thesis's zy joint is singular at beta = 0,
-  !> where gamma stops being a bending direction and must turn fast to follow the motion.
+  !> Diagnostic appended to a failed run: the joint nearest its coordinate singularity, if
+  !> it is near.  The thesis's zy joint is singular at beta = 0 (gamma stops being a bending
+  !> direction; near: within 2 deg); the Cardan xy/xyz joints at theta = +-90 deg (phi and psi
+  !> turn about one axis), where the joint rates grow like 1/cos theta: IDA gives up well
+  !> before (the undamped six-link xy swing fails at |cos theta| = 0.11), so near means
+  !> within 12 deg, a kink no cable takes over one body length.
   function singularity_hint(model, q) result(hint)
     type(model_type), intent(in) :: model     !< model
     real(dp), intent(in) :: q(:)              !< coordinates at the failure
     character(len=:), allocatable :: hint
-    real(dp) :: beta_min
+    real(dp) :: margin, margin_min
     integer :: j, j_min, i0
-    character(len=160) :: buf
+    character(len=200) :: buf
     hint = ''
-    beta_min = huge(1.0_dp)
+    margin_min = huge(1.0_dp)
     j_min = 0
     do j = 1, model%chain%n_bodies
       i0 = model%chain%first_coord(j)
-      if (i0 == 0 .or. model%chain%joint_kind(j) /= JOINT_ZY) cycle
-      if (abs(sin(q(i0 + 1))) < beta_min) then
-        beta_min = abs(sin(q(i0 + 1)))
+      if (i0 == 0) cycle
+      margin = singularity_margin(model%chain%joint_kind(j), q(i0:i0 + 1))
+      if (margin < margin_min) then
+        margin_min = margin
         j_min = j
       end if
     end do
-    if (j_min > 0 .and. beta_min < sin(2.0_dp*acos(-1.0_dp)/180.0_dp)) then
-      write (buf, '(a, i0, a, f6.3, a)') '; joint ', j_min, ' is near beta = 0 (|sin beta| = ', beta_min, &
+    if (j_min == 0) return
+    if (model%chain%joint_kind(j_min) == JOINT_ZY .and. margin_min >= sin(2.0_dp*acos(-1.0_dp)/180.0_dp)) return
+    if (model%chain%joint_kind(j_min) /= JOINT_ZY .and. margin_min >= sin(12.0_dp*acos(-1.0_dp)/180.0_dp)) return
+    if (model%chain%joint_kind(j_min) == JOINT_ZY) then
+      write (buf, '(a, i0, a, f6.3, a)') '; joint ', j_min, ' is near beta = 0 (|sin beta| = ', margin_min, &
         '), the singularity of the thesis''s zy joint: try &chain joint = ''xy'''
-      hint = trim(buf)
+    else
+      write (buf, '(a, i0, a, f6.3, a)') '; joint ', j_min, ' is near theta = +-90 deg (|cos theta| = ', &
+        margin_min, '), the singularity of the Cardan joint (a right-angle kink in one body length): '// &
+        'use more bodies or add bending damping'
     end if
+    hint = trim(buf)
   end function singularity_hint
+
+  !> Distance of a joint from its coordinate singularity: |sin beta| for the thesis's zy
+  !> joint, |cos theta| for the Cardan joints (0 = singular, 1 = farthest).
+  pure real(dp) function singularity_margin(kind, angles)
+    integer, intent(in) :: kind               !< parametrisation
+    real(dp), intent(in) :: angles(2)         !< the joint's first two coordinates [rad]
+    if (kind == JOINT_ZY) then
+      singularity_margin = abs(sin(angles(2)))
+    else
+      singularity_margin = abs(cos(angles(2)))
+    end if
+  end function singularity_margin
 
   !> IDA error handler: keep the message for the Python exception instead of printing it.
   subroutine ida_error_handler(code, module_name, function_name, msg, udata) bind(C)
@@ -310,6 +337,8 @@ contains
 
     nq = model%nq; nc = model%nc; n = 2*nq + 2*nc
     steps_before = 0
+    ! IDA's time reached; set before any IDASolve (a stale value skipped whole runs: 0 steps).
+    tret = real(t_out(1), c_double)
     q = q0; v = v0
     call consistent_start(model, t_out(1), q, v, vdot, lambda(1:nc), error)
     if (error%code /= 0) return
