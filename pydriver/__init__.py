@@ -1,8 +1,9 @@
 """rotorcable driver: run Fortran namelist decks and post-process the results.
 
-The numerical work happens in the compiled Fortran core (``pydriver._rotorcable``,
-built by meson/f2py); this package reads nothing itself, it turns the core's arrays
-into tables, time series, plots and ``summary.json``.
+The numerical work happens in the compiled Fortran core (``pydriver._rotorcable``, built by
+meson/f2py, reached only through :mod:`pydriver.core`).  A deck is read once (f90nml and the
+schema of :mod:`pydriver.schema`), built once into a :class:`Model`, and every analysis runs on
+that model.
 
 Examples
 --------
@@ -10,6 +11,7 @@ Examples
 >>> res = pydriver.run_deck("inputs/six_link_static.nml")
 >>> res.summary["reactions"]["B"]["F"]
 [0.0, 0.0, 75.13...]
+>>> m = pydriver.Model.from_deck("inputs/uh60_part2_modal.nml").with_changes({"springs.c_beta": 20.0})
 """
 
 import os as _os
@@ -20,10 +22,13 @@ import os as _os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):
     _os.environ.setdefault(_var, "1")
 
-from pydriver.deck import DeckError, RunError, Result, deck_info, run_deck, evaluate_model, shape
+from pydriver.errors import DeckError, RunError
+from pydriver.model import Model
+from pydriver.result import Result
+from pydriver.run import deck_info, evaluate_model, run_deck, shape
 from pydriver.results import load_results
 from pydriver.scene import Scene, scene
 from pydriver.sweep import SweepError, run_sweep
 
-__all__ = ["DeckError", "RunError", "Result", "deck_info", "run_deck", "evaluate_model", "shape",
+__all__ = ["DeckError", "RunError", "Result", "Model", "deck_info", "run_deck", "evaluate_model", "shape",
            "Scene", "scene", "load_results", "run_sweep", "SweepError"]

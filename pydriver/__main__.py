@@ -9,7 +9,8 @@ import json
 import sys
 from pathlib import Path
 
-from pydriver.deck import DeckError, RunError, run_deck
+from pydriver.errors import DeckError, RunError
+from pydriver.run import run_deck
 
 
 def main(argv=None) -> int:

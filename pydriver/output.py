@@ -1,17 +1,179 @@
-"""Result files: summary.json, table.txt/.csv (thesis appendix layout), timeseries.csv.
+"""Result files: summary.json, table.txt/.csv (thesis appendix layout), timeseries.csv or
+timeseries.h5, modes.csv; all of one run in one directory, complete or not at all.
 
-Every file is first written under a temporary name in the target directory and renamed
-once all of them exist, so a failure leaves no partial output behind.
+A run writes into a temporary sibling directory and swaps it into place when everything is
+written (:class:`RunDirectory`): a failure, an interrupt or a kill never leaves a partial or
+mixed directory, and files of an earlier run (another analysis, another deck) never survive
+beside the new ones.  Time series are streamed in chunks (:class:`TimeseriesWriter`), never
+built as one text in memory; large ones go to HDF5 (h5py), which every analysis tool reads.
 """
 
 from __future__ import annotations
 
+import ctypes
+import errno
 import json
 import os
+import shutil
 import tempfile
 from pathlib import Path
 
 import numpy as np
+
+#: Time series with more values than this go to HDF5 when the deck asks for 'auto'.
+CSV_MAX_VALUES = 5_000_000
+
+
+def _renameat2_exchange(a: Path, b: Path) -> bool:
+    """Atomically exchange two paths (Linux renameat2 RENAME_EXCHANGE); False if unsupported."""
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        fn = libc.renameat2
+    except (OSError, AttributeError):
+        return False
+    at_fdcwd, rename_exchange = -100, 2
+    rc = fn(at_fdcwd, os.fsencode(str(a)), at_fdcwd, os.fsencode(str(b)), rename_exchange)
+    if rc == 0:
+        return True
+    err = ctypes.get_errno()
+    if err in (errno.ENOSYS, errno.EINVAL, errno.ENOTSUP):
+        return False
+    raise OSError(err, os.strerror(err), str(b))
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+class RunDirectory:
+    """A run's output directory, written in a temporary sibling and swapped in at the end.
+
+    Use as a context manager: on success ``commit`` swaps it in; on any exception the
+    temporary directory is removed and the old output stays as it was.
+    """
+
+    def __init__(self, out):
+        self.out = Path(out)
+        parent = self.out.parent
+        parent.mkdir(parents=True, exist_ok=True)
+        self._clean_stale(parent)
+        self.tmp = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.tmp-{os.getpid()}-", dir=parent))
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(self.tmp, 0o777 & ~umask)        # mkdtemp makes 0700; a result is for others too
+        self.committed = False
+
+    def _clean_stale(self, parent: Path):
+        """Remove temporaries of earlier runs into the same directory whose process is gone
+        (a run killed with SIGKILL cannot clean up after itself)."""
+        for p in parent.glob(f".{self.out.name}.tmp-*"):
+            try:
+                pid = int(p.name.rsplit(".tmp-", 1)[1].split("-")[0])
+            except (IndexError, ValueError):
+                continue
+            if not _pid_alive(pid):
+                shutil.rmtree(p, ignore_errors=True)
+        for p in parent.glob(f".{self.out.name}.old-*"):
+            shutil.rmtree(p, ignore_errors=True)
+
+    def path(self, name: str) -> Path:
+        """Where to write the file ``name`` of this run."""
+        return self.tmp / name
+
+    def commit(self) -> Path:
+        """Put the finished directory in place of ``out`` (atomically where Linux allows)."""
+        if self.out.is_symlink() or (self.out.exists() and not self.out.is_dir()):
+            raise OSError(errno.EEXIST, "exists and is not a directory", str(self.out))
+        if self.out.exists():
+            if _renameat2_exchange(self.tmp, self.out):
+                shutil.rmtree(self.tmp, ignore_errors=True)      # now holds the old run
+            else:
+                old = self.out.parent / f".{self.out.name}.old-{os.getpid()}"
+                os.rename(self.out, old)
+                os.rename(self.tmp, self.out)
+                shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.rename(self.tmp, self.out)
+        self.committed = True
+        return self.out
+
+    def abort(self):
+        shutil.rmtree(self.tmp, ignore_errors=True)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        if exc_type is not None or not self.committed:
+            self.abort()
+        return False
+
+
+def _fmt(x: float) -> str:
+    return repr(float(x))
+
+
+class TimeseriesWriter:
+    """Streams time-series rows (chunks of columns) to CSV or HDF5."""
+
+    def __init__(self, path: Path, columns: list[str], fmt: str):
+        self.columns = columns
+        self.fmt = fmt
+        self.path = path
+        self.rows = 0
+        if fmt == "hdf5":
+            import h5py
+            self._h5 = h5py.File(path, "w")
+            self._h5.attrs["columns"] = json.dumps(columns)
+            self._sets = {c: self._h5.create_dataset(c, shape=(0,), maxshape=(None,), dtype="f8",
+                                                     chunks=(16384,)) for c in columns}
+        else:
+            self._fh = open(path, "w", encoding="utf-8", newline="\n")
+            self._fh.write(",".join(columns) + "\n")
+
+    def write(self, chunk: dict):
+        n = len(chunk[self.columns[0]])
+        if self.fmt == "hdf5":
+            for c in self.columns:
+                ds = self._sets[c]
+                ds.resize((self.rows + n,))
+                ds[self.rows:] = chunk[c]
+        else:
+            data = np.column_stack([np.asarray(chunk[c], float) for c in self.columns])
+            self._fh.write("".join(",".join(map(_fmt, row)) + "\n" for row in data))
+        self.rows += n
+
+    def close(self):
+        if self.fmt == "hdf5":
+            self._h5.close()
+        else:
+            self._fh.close()
+
+
+def read_timeseries(path: Path) -> dict:
+    """The columns of a timeseries.csv or timeseries.h5 as numpy arrays."""
+    path = Path(path)
+    if path.suffix == ".h5":
+        import h5py
+        with h5py.File(path, "r") as h5:
+            return {c: h5[c][:] for c in json.loads(h5.attrs["columns"])}
+    return read_csv(path)
+
+
+def read_csv(path: Path) -> dict:
+    """The columns of a CSV file written here (numbers only)."""
+    with open(path, encoding="utf-8") as fh:
+        names = fh.readline().strip().split(",")
+        data = np.loadtxt(fh, delimiter=",", ndmin=2) if names != [""] else np.zeros((0, 0))
+    if data.size == 0:
+        return {n: np.zeros(0) for n in names}
+    return {n: data[:, i] for i, n in enumerate(names)}
 
 
 def format_table(result) -> str:
@@ -33,50 +195,47 @@ def format_table(result) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _csv(columns: dict) -> str:
+def _write_csv(path: Path, columns: dict, int_columns=("body", "mode", "joint")):
     names = list(columns)
-    data = np.column_stack([np.asarray(columns[n], dtype=float) for n in names])
-    rows = [",".join(names)]
-    for r in data:
-        rows.append(",".join(repr(float(x)) for x in r))
-    return "\n".join(rows) + "\n"
+    with open(path, "w", encoding="utf-8", newline="\n") as fh:
+        fh.write(",".join(names) + "\n")
+        n = len(columns[names[0]]) if names else 0
+        for i in range(n):
+            fh.write(",".join(str(int(columns[c][i])) if c in int_columns else _fmt(columns[c][i])
+                              for c in names) + "\n")
 
 
-def table_csv(table: dict) -> str:
-    names = ["body", "gamma_deg", "beta_deg", "x_m", "y_m", "z_m"]
-    rows = [",".join(names)]
-    for i in range(len(table["body"])):
-        rows.append(",".join([str(int(table["body"][i]))]
-                             + [repr(float(table[n][i])) for n in names[1:]]))
-    return "\n".join(rows) + "\n"
-
-
-def write_result(result, out: Path, plots: bool = False) -> list[Path]:
-    """Write all files of a result into ``out`` atomically; return the final paths."""
-    files: dict[str, str] = {"summary.json": json.dumps(result.summary, indent=2) + "\n"}
+def write_files(result, run_dir: RunDirectory, plots: bool = False) -> None:
+    """Write every file of a result into the run directory (before commit)."""
+    (run_dir.path("summary.json")).write_text(json.dumps(result.summary, indent=2, allow_nan=False) + "\n",
+                                              encoding="utf-8")
+    result.files["summary.json"] = run_dir.out / "summary.json"
     if result.table is not None:
-        files["table.txt"] = format_table(result)
-        files["table.csv"] = table_csv(result.table)
-    if result.timeseries is not None:
-        files["timeseries.csv"] = _csv(result.timeseries)
-    if "modes" in result.extra:
-        files["modes.csv"] = _csv(result.extra["modes"])
-    out.mkdir(parents=True, exist_ok=True)
-    staged: list[tuple[str, Path]] = []
-    try:
-        for name, text in files.items():
-            fd, tmp = tempfile.mkstemp(prefix=f".{name}.", dir=out)
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                fh.write(text)
-            staged.append((tmp, out / name))
-        if plots:
-            from pydriver.plots import plot_result
-            for tmp, final in plot_result(result, out):
-                staged.append((tmp, final))
-    except BaseException:
-        for tmp, _ in staged:
-            Path(tmp).unlink(missing_ok=True)
-        raise
-    for tmp, final in staged:
-        os.replace(tmp, final)
-    return [final for _, final in staged]
+        run_dir.path("table.txt").write_text(format_table(result), encoding="utf-8")
+        _write_csv(run_dir.path("table.csv"), result.table)
+        result.files["table.txt"] = run_dir.out / "table.txt"
+        result.files["table.csv"] = run_dir.out / "table.csv"
+    if result.timeseries is not None and not run_dir.path("timeseries.csv").exists() \
+            and not run_dir.path("timeseries.h5").exists():
+        writer = TimeseriesWriter(run_dir.path("timeseries.csv"), list(result.timeseries), "csv")
+        writer.write(result.timeseries)
+        writer.close()
+        result.files["timeseries.csv"] = run_dir.out / "timeseries.csv"
+    if result.modes is not None:
+        _write_csv(run_dir.path("modes.csv"), result.modes)
+        result.files["modes.csv"] = run_dir.out / "modes.csv"
+    for name, columns in result.extra.get("tables", {}).items():
+        _write_csv(run_dir.path(name), columns)
+        result.files[name] = run_dir.out / name
+    if plots:
+        from pydriver.plots import plot_result
+        for name in plot_result(result, run_dir.tmp):
+            result.files[name] = run_dir.out / name
+
+
+def write_result(result, out, plots: bool = False) -> list[Path]:
+    """Write all files of a result into ``out`` as one unit; return the final paths."""
+    with RunDirectory(out) as run_dir:
+        write_files(result, run_dir, plots)
+        run_dir.commit()
+    return sorted(result.files.values())

@@ -1,7 +1,7 @@
 """PNG plots (matplotlib, Agg backend).
 
 plot_result() draws what one run shows (shape, reactions, decay signal and spectrum, mode
-frequencies) and yields (temporary path, final path) pairs for atomic renaming.  The study
+frequencies) into a run's (temporary) directory and returns the file names.  The study
 plots (rest vs hover shapes like thesis Figures 5.6/5.12, frequency against c_y like
 Figure 5.9) are drawn by plot_shapes() and plot_frequency_vs_cy().
 """
@@ -20,13 +20,23 @@ def _plt():
     return plt
 
 
-def _save(fig, out: Path, name: str):
+def _save(fig, out: Path, name: str) -> str:
     plt = _plt()
-    fd, tmp = tempfile.mkstemp(prefix=f".{name}.", suffix=".png", dir=out)
+    fig.savefig(Path(out) / name, dpi=110)
+    plt.close(fig)
+    return name
+
+
+def _save_replace(fig, path: Path):
+    """Save to a temporary name beside ``path`` and rename: a study plot is never half written."""
+    plt = _plt()
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=path.parent)
     os.close(fd)
     fig.savefig(tmp, dpi=110)
     plt.close(fig)
-    return tmp, out / name
+    os.chmod(tmp, 0o644)
+    os.replace(tmp, path)
 
 
 def _shape_axes(fig, tables: dict):
@@ -44,8 +54,12 @@ def _shape_axes(fig, tables: dict):
     ax2.legend(fontsize=7)
 
 
-def plot_result(result, out: Path):
-    """Plots of one run; yields (temporary path, final path) pairs."""
+def plot_result(result, out: Path) -> list[str]:
+    """Plots of one run, written into the directory ``out``; returns their file names."""
+    return list(_plots(result, out))
+
+
+def _plots(result, out: Path):
     plt = _plt()
     s = result.summary
     if result.table is not None:
@@ -65,7 +79,7 @@ def plot_result(result, out: Path):
             a.grid(True); a.legend(fontsize=7, ncol=3)
         fig.suptitle(f"{s['case']}: support reactions (support on chain)")
         yield _save(fig, out, "reactions.png")
-    if "decay" in s:
+    if "f_damped_hz" in s.get("decay", {}):
         from pydriver.signal import spectrum
         d = s["decay"]
         t = result.timeseries["t"]
@@ -100,8 +114,7 @@ def plot_shapes(tables: dict, path: Path, title: str):
     fig = plt.figure(figsize=(13, 4.5))
     _shape_axes(fig, tables)
     fig.suptitle(title)
-    tmp, final = _save(fig, Path(path).parent, Path(path).name)
-    os.replace(tmp, final)
+    _save_replace(fig, path)
 
 
 def plot_frequency_vs_cy(res: dict, path: Path, f_flap: float, c_cross: float):
@@ -114,5 +127,4 @@ def plot_frequency_vs_cy(res: dict, path: Path, f_flap: float, c_cross: float):
     ax.axvline(c_cross, color="k", ls=":", label=f"c_y = {c_cross:.2f} Nm/rad")
     ax.set_xlabel("c_y [Nm/rad]"); ax.set_ylabel("f [Hz]"); ax.grid(True); ax.legend()
     fig.suptitle("UH-60 cable part 2: first frequency against c_y (thesis Figure 5.9)")
-    tmp, final = _save(fig, Path(path).parent, Path(path).name)
-    os.replace(tmp, final)
+    _save_replace(fig, path)

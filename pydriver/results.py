@@ -19,7 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from pydriver.deck import SOLVER_KEYS_DYNAMIC, SOLVER_KEYS_STATIC
+SOLVER_KEYS_DYNAMIC = ("steps", "residual_evals", "jacobian_evals", "error_test_failures",
+                       "convergence_failures")
+SOLVER_KEYS_STATIC = ("newton_iterations", "residual_evals", "jacobian_evals", "line_search_cuts")
 
 MANIFEST = "sweep.json"
 TABLE = "sweep.csv"

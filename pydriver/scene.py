@@ -11,8 +11,10 @@ P_1 = ``base_position``.  A locked joint keeps ``locked_angles``; a free joint's
 (gamma, beta) are q[first_coord-1], q[first_coord].  Joint torques are
 -stiffness (q - rest) - damping qdot per coordinate.  Clamp B (if active) holds the tip
 P_{n+1} at ``clamp_position`` and R_n at ``clamp_rotation``.  Loads: weight m g at each
-CM, centrifugal m w^2 (r_x, r_y, 0) with r = CM + rotor_offset when the rotor turns, and
-the pulse force at the CM of ``pulse_body`` for pulse_window[0] <= t < pulse_window[1].
+CM; with a turning rotor the equations are written in the hub frame turning at
+``rotor_omega`` about the z axis through -rotor_offset (centrifugal, Coriolis and the
+couples on the bodies' rotational inertia); the pulse force at the CM of ``pulse_body`` for
+pulse_window[0] <= t < pulse_window[1].
 """
 
 from __future__ import annotations
@@ -21,10 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pydriver import _rotorcable
-from pydriver.deck import _check, deck_info
-
-_core = _rotorcable.rotorcable_api
+from pydriver.analyses.dynamics import start_state
+from pydriver.model import Model
 
 
 @dataclass
@@ -62,7 +62,8 @@ class Scene:
 
 
 def scene(path) -> Scene:
-    """Read a deck and return its :class:`Scene` (start made consistent, equilibrium if asked).
+    """Read a deck (or take a Model) and return its :class:`Scene`, the start made consistent
+    (the equilibrium if the deck starts there).
 
     Raises
     ------
@@ -71,22 +72,29 @@ def scene(path) -> Scene:
     RunError
         The start state could not be made consistent.
     """
-    path = str(path)
-    info = deck_info(path)
-    nb, nq = info["n_bodies"], info["n_coords"]
-    out = _core.rc_scene(path, nb, nq)
-    *arrays, stat, msg = out
-    _check(path, stat, msg=msg)
-    (lengths, radii, masses, inertia, locked, locked_angles, first_coord, stiffness, damping, rest,
-     base_position, base_rotation, clamp_active, clamp_position, clamp_rotation, gravity,
-     rotor_omega, rotor_offset, pulse_body, pulse_force, pulse_window, tip_force, t_end, q0,
-     v0) = arrays
-    return Scene(n_bodies=nb, n_coords=nq, n_constraints=info["n_constraints"],
-                 lengths=lengths, radii=radii, masses=masses, inertia=inertia,
-                 locked=locked.astype(bool), locked_angles=locked_angles,
-                 first_coord=first_coord.astype(int), stiffness=stiffness, damping=damping,
-                 rest=rest, base_position=base_position, base_rotation=base_rotation,
-                 clamp_active=bool(clamp_active), clamp_position=clamp_position,
-                 clamp_rotation=clamp_rotation, gravity=gravity, rotor_omega=float(rotor_omega),
-                 rotor_offset=rotor_offset, pulse_body=int(pulse_body), pulse_force=pulse_force,
-                 pulse_window=pulse_window, tip_force=tip_force, t_end=float(t_end), q0=q0, v0=v0)
+    m = path if isinstance(path, Model) else Model.from_deck(path)
+    d = m.description
+    b = d["bodies"]
+    i_xx = b.masses * (b.lengths**2 + 3 * b.radii**2) / 12.0          # eq. 4.50
+    inertia = np.column_stack([i_xx, i_xx, b.masses * b.radii**2 / 2.0])
+    deck = m.deck
+    q0, v0 = start_state(m)
+    y, _ = m.core.consistent_ggl_state(q0, v0)
+    nq = m.nq
+    clamp = d["clamp"]
+    rot = d["rotor"]
+    return Scene(n_bodies=m.n_bodies, n_coords=nq, n_constraints=m.nc, lengths=b.lengths, radii=b.radii,
+                 masses=b.masses, inertia=inertia, locked=b.locked,
+                 locked_angles=np.column_stack([np.radians(deck["shape.gamma_deg"]),
+                                                np.radians(deck["shape.beta_deg"])]),
+                 first_coord=d["first_coord"], stiffness=d["stiffness"], damping=d["damping"], rest=d["rest"],
+                 base_position=np.zeros(3), base_rotation=np.eye(3), clamp_active=clamp is not None,
+                 clamp_position=clamp[0] if clamp else np.zeros(3),
+                 clamp_rotation=clamp[1] if clamp else np.zeros((3, 3)),
+                 gravity=np.asarray(deck["loads.gravity"], float),
+                 rotor_omega=float(rot["params"][0]) if rot else 0.0,
+                 rotor_offset=np.asarray(deck["loads.rotor_offset"], float),
+                 pulse_body=int(deck["loads.pulse_body"]), pulse_force=np.asarray(deck["loads.pulse_force"], float),
+                 pulse_window=np.array([deck["loads.pulse_start"], deck["loads.pulse_end"]]),
+                 tip_force=np.asarray(deck["loads.tip_force"], float), t_end=float(deck["solver.t_end"]),
+                 q0=y[:nq].copy(), v0=y[nq:2 * nq].copy())

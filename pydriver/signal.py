@@ -45,20 +45,20 @@ def decay_analysis(t, signal, name: str, pulse_end: float, settle: float = 0.1) 
     -------
     dict with ``f_damped_hz`` (from the mean half period between zero crossings),
     ``f_fft_peak_hz``, ``zeta`` (from the logarithmic decrement of the peaks), the window and
-    the number of zero crossings used.
+    the number of zero crossings used; without those three (and with a ``note`` saying why)
+    when the run has no free decay long enough to evaluate.
     """
     t = np.asarray(t, float)
     y = np.asarray(signal, float) - float(signal[0])
     m = t >= pulse_end + settle
     if np.count_nonzero(m) < 3:
         # The run ends before the free decay starts: nothing to analyse (not an error).
-        return {"signal": name, "window_s": [], "n_zero_crossings": 0, "f_damped_hz": float("nan"),
-                "f_fft_peak_hz": float("nan"), "zeta": float("nan"),
+        return {"signal": name, "window_s": [], "n_zero_crossings": 0,
                 "note": f"run ends before t = {pulse_end + settle:g} s, no free decay to analyse"}
     tc = zero_crossings(t[m], y[m])
     out = {"signal": name, "window_s": [float(t[m][0]), float(t[m][-1])], "n_zero_crossings": int(len(tc))}
     if len(tc) < 3:
-        out.update(f_damped_hz=float("nan"), f_fft_peak_hz=float("nan"), zeta=float("nan"))
+        out["note"] = f"{len(tc)} zero crossings after t = {pulse_end + settle:g} s: too few to evaluate"
         return out
     f_d = (len(tc) - 1) / (2.0 * (tc[-1] - tc[0]))
     f, spec = spectrum(t[m], y[m])
@@ -70,8 +70,8 @@ def decay_analysis(t, signal, name: str, pulse_end: float, settle: float = 0.1) 
             k = np.argmax(np.abs(y[m][w]))
             peaks_t.append(t[m][w][k])
             peaks_a.append(abs(y[m][w][k]))
-    sigma = -np.polyfit(peaks_t, np.log(peaks_a), 1)[0] if len(peaks_t) > 2 else float("nan")
-    w_d = 2 * np.pi * f_d
-    out.update(f_damped_hz=float(f_d), f_fft_peak_hz=float(f[np.argmax(spec)]),
-               zeta=float(sigma / np.hypot(sigma, w_d)))
+    out.update(f_damped_hz=float(f_d), f_fft_peak_hz=float(f[np.argmax(spec)]))
+    if len(peaks_t) > 2 and min(peaks_a) > 0.0:
+        sigma = -np.polyfit(peaks_t, np.log(peaks_a), 1)[0]
+        out["zeta"] = float(sigma / np.hypot(sigma, 2 * np.pi * f_d))
     return out

@@ -7,39 +7,20 @@ into a temporary directory and runs them; results come back as numpy arrays.
 
 from __future__ import annotations
 
-import re
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from pydriver.deck import run_deck
+from pydriver.deckfile import patch_deck
+from pydriver.run import run_deck
 
 
 def override_deck(src, dst, changes: dict) -> Path:
-    """Copy deck ``src`` to ``dst`` with ``changes = {group: {key: value_text}}`` applied.
-
-    Keys present in the group are replaced (whole assignment line), missing keys appended;
-    a missing group is appended.  Value texts are namelist syntax (e.g. ``"35.0"``,
-    ``"90.0, 10*0.0"``, ``"'modal'"``).
-    """
-    text = Path(src).read_text()
-    for group, keys in changes.items():
-        pat = re.compile(rf"(&{group}\b)(.*?)(\n\s*/)", re.S | re.I)
-        m = pat.search(text)
-        if m is None:
-            text += f"\n&{group}\n/\n"
-            m = pat.search(text)
-        body = m.group(2)
-        for key, value in keys.items():
-            kpat = re.compile(rf"^[ \t]*{key}[ \t]*=.*$", re.M | re.I)
-            if kpat.search(body):
-                body = kpat.sub(lambda _m: f"  {key} = {value}", body)
-            else:
-                body += f"\n  {key} = {value}"
-        text = text[:m.start()] + m.group(1) + body + m.group(3) + text[m.end():]
-    Path(dst).write_text(text)
-    return Path(dst)
+    """Copy deck ``src`` to ``dst`` with ``changes = {group: {key: value_text}}`` applied
+    (f90nml, :func:`pydriver.deckfile.patch_deck`; value texts are namelist syntax, e.g.
+    ``"35.0"``, ``"90.0, 10*0.0"``, ``"'modal'"``)."""
+    return patch_deck(src, dst, changes)
 
 
 def _modal(deck, changes, tmp):

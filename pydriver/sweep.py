@@ -37,7 +37,8 @@ from pathlib import Path
 
 import numpy as np
 
-from pydriver.deck import DeckError, deck_info, run_deck
+from pydriver.errors import DeckError
+from pydriver.run import deck_info, run_deck
 from pydriver.results import (MANIFEST, REACTION_COLUMNS, TABLE, read_manifest, read_record,
                               rows_to_table, sweep_rows, table_csv_text)
 from pydriver.study import override_deck

@@ -1,4 +1,6 @@
-!> Chain description: bodies (uniform cylinders), joints, coordinates, springs.
+!> Chain description: bodies (uniform cylinders, each with its own length, radius and mass)
+!> and joints; the springs and dampers are a load (rotorcable_loads_joint_springs), the
+!> supports are the model's (rotorcable_supports_*).
 !>
 !> Body j has its frame origin at its joint point P_j, its axis along local z, its
 !> centre of mass at (0,0,L_j/2) (eq. 4.3) and its end (the next joint) at (0,0,L_j).
@@ -8,7 +10,6 @@
 module rotorcable_chain
   use rotorcable_kinds, only: dp
   use rotorcable_joint, only: JOINT_ZY, joint_ndof
-  use rotorcable_rotations, only: identity3
   implicit none
   private
   public :: chain_type, chain_allocate, cylinder_inertia
@@ -26,11 +27,6 @@ module rotorcable_chain
     real(dp), allocatable :: locked_angles(:, :)  !< (2,n) angles of a locked joint [rad]
     integer, allocatable :: first_coord(:)        !< index in q of joint j's first coordinate (0 if locked)
     integer, allocatable :: n_joint_coords(:)     !< coordinates of joint j (0 if locked)
-    real(dp), allocatable :: stiffness(:)         !< per coordinate spring constant [Nm/rad]
-    real(dp), allocatable :: damping(:)           !< per coordinate damper constant [Nms/rad]
-    real(dp), allocatable :: rest(:)              !< per coordinate spring rest angle [rad]
-    real(dp) :: base_position(3) = 0.0_dp         !< joint point P_1 (clamp A) in the world [m]
-    real(dp) :: base_rotation(3, 3) = 0.0_dp      !< world <- base frame rotation
   end type chain_type
 
 contains
@@ -46,7 +42,7 @@ contains
     theta(3) = mass*radius**2/2.0_dp
   end function cylinder_inertia
 
-  !> Allocate a chain of n equal cylinders with thesis joints; `locked` marks locked joints.
+  !> Allocate a chain of n cylinders; `locked` marks locked joints.
   !> Coordinates are numbered here, once, so every kernel shares one map.
   pure subroutine chain_allocate(chain, n, length, radius, mass, locked, joint_kind)
     type(chain_type), intent(out) :: chain    !< chain to build
@@ -87,12 +83,6 @@ contains
       end if
     end do
     chain%n_coords = nq
-    allocate (chain%stiffness(nq), chain%damping(nq), chain%rest(nq))
-    chain%stiffness = 0.0_dp
-    chain%damping = 0.0_dp
-    chain%rest = 0.0_dp
-    chain%base_position = 0.0_dp
-    chain%base_rotation = identity3()
   end subroutine chain_allocate
 
 end module rotorcable_chain

@@ -9,19 +9,23 @@ module rotorcable_errors
   type :: error_type
     integer :: code = 0                          !< 0 = ok, > 0 = failure
     character(len=:), allocatable :: message     !< human-readable reason
+    character(len=:), allocatable :: key         !< 'group.key' of the input at fault ('' = none)
   end type error_type
 
 contains
 
   !> Record a failure with its message (keeps the first failure if one is already set).
-  pure subroutine fatal_error(error, message, code)
+  pure subroutine fatal_error(error, message, code, key)
     type(error_type), intent(inout) :: error     !< status to set
     character(len=*), intent(in) :: message      !< what went wrong, naming the input
     integer, intent(in), optional :: code        !< error code (default 1)
+    character(len=*), intent(in), optional :: key  !< 'group.key' of the input at fault
     if (error%code /= 0) return
     error%code = 1
     if (present(code)) error%code = code
     error%message = message
+    error%key = ''
+    if (present(key)) error%key = key
   end subroutine fatal_error
 
   !> Reset a status to success.
@@ -29,6 +33,7 @@ contains
     type(error_type), intent(inout) :: error     !< status to reset
     error%code = 0
     error%message = ''
+    error%key = ''
   end subroutine clear_error
 
 end module rotorcable_errors

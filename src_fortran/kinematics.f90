@@ -6,7 +6,11 @@
 !>   w_j = w_{j-1} + sum_k a_k qd_k
 !>   alpha_j = alpha_{j-1} + sum_k a_k qdd_k + w_{j-1} x w_rel + joint_bias
 !>   acc(P_{j+1}) = acc(P_j) + alpha_j x r + w_j x (w_j x r)          (eq. 3.21)
-!> The base (clamp A) is fixed in the world frame.
+!> The base (support A) has a pose (R_0, P_1) and an absolute motion (w_0, alpha_0, velocity and
+!> acceleration of P_1), the seed of the forward recursion (Featherstone 2008, section 5.3): zero
+!> for a clamp fixed in the inertial frame; the hub's rotation and a moving support's motion
+!> otherwise (rotorcable_frame).  Velocities and accelerations are absolute, in the coordinates
+!> of the model's frame.
 module rotorcable_kinematics
   use rotorcable_kinds, only: dp
   use rotorcable_chain, only: chain_type
@@ -14,7 +18,16 @@ module rotorcable_kinematics
   use rotorcable_rotations, only: cross
   implicit none
   private
-  public :: chain_state, state_allocate, chain_positions, chain_motion, joint_angles
+  public :: chain_state, state_allocate, chain_positions, chain_motion, joint_angles, motion_seed
+
+  !> Absolute motion of the base: angular velocity and acceleration of the base frame, velocity
+  !> and acceleration of the joint point P_1 (model-frame coordinates).
+  type :: motion_seed
+    real(dp) :: omega(3) = 0.0_dp
+    real(dp) :: alpha(3) = 0.0_dp
+    real(dp) :: vel(3) = 0.0_dp
+    real(dp) :: acc(3) = 0.0_dp
+  end type motion_seed
 
   !> Kinematic state of every body (world frame).
   type :: chain_state
@@ -28,6 +41,8 @@ module rotorcable_kinematics
     real(dp), allocatable :: acc_joint(:, :)    !< (3,n+1) acceleration of P_j
     real(dp), allocatable :: vel_cm(:, :)       !< (3,n) CM velocity
     real(dp), allocatable :: acc_cm(:, :)       !< (3,n) CM acceleration
+    real(dp), allocatable :: joint_force(:, :)  !< (3,n) force of parent (or base) on body j at P_j
+    real(dp), allocatable :: joint_moment(:, :) !< (3,n) moment of parent on body j about P_j
   end type chain_state
 
 contains
@@ -40,8 +55,10 @@ contains
     n = chain%n_bodies
     allocate (st%rot(3, 3, n), st%joint_point(3, n + 1), st%cm(3, n), st%axes(3, MAX_JOINT_DOF, n))
     allocate (st%omega(3, n), st%alpha(3, n), st%vel_joint(3, n + 1), st%acc_joint(3, n + 1))
-    allocate (st%vel_cm(3, n), st%acc_cm(3, n))
+    allocate (st%vel_cm(3, n), st%acc_cm(3, n), st%joint_force(3, n), st%joint_moment(3, n))
     st%axes = 0.0_dp
+    st%joint_force = 0.0_dp
+    st%joint_moment = 0.0_dp
   end subroutine state_allocate
 
   !> Joint angles of joint j: the coordinates if free, the locked angles otherwise.
@@ -59,16 +76,18 @@ contains
   end function joint_angles
 
   !> Frames, joint points, CMs and joint axes for coordinates q.
-  pure subroutine chain_positions(chain, q, st)
+  pure subroutine chain_positions(chain, base_rotation, base_position, q, st)
     type(chain_type), intent(in) :: chain      !< chain description
+    real(dp), intent(in) :: base_rotation(3, 3)  !< base frame R_0 (model <- base)
+    real(dp), intent(in) :: base_position(3)   !< joint point P_1 [m]
     real(dp), intent(in) :: q(:)               !< generalized coordinates [rad]
     type(chain_state), intent(inout) :: st     !< state (positions filled)
     ! Explicit-shape locals let the compiler inline the 3x3 products (no library matmul).
     real(dp) :: r_parent(3, 3), r_rel(3, 3), r_child(3, 3), angles(MAX_JOINT_DOF)
     integer :: j, nd
 
-    r_parent = chain%base_rotation
-    st%joint_point(:, 1) = chain%base_position
+    r_parent = base_rotation
+    st%joint_point(:, 1) = base_position
     do j = 1, chain%n_bodies
       angles = joint_angles(chain, q, j)
       r_rel = joint_rotation(chain%joint_kind(j), angles)
@@ -83,18 +102,19 @@ contains
   end subroutine chain_positions
 
   !> Velocities and accelerations for rates qd and accelerations qdd (positions must be current).
-  pure subroutine chain_motion(chain, qd, qdd, st)
+  pure subroutine chain_motion(chain, seed, qd, qdd, st)
     type(chain_type), intent(in) :: chain      !< chain description
+    type(motion_seed), intent(in) :: seed      !< absolute motion of the base
     real(dp), intent(in) :: qd(:)              !< coordinate rates [rad/s]
     real(dp), intent(in) :: qdd(:)             !< coordinate accelerations [rad/s^2]
     type(chain_state), intent(inout) :: st     !< state (motion filled)
     real(dp) :: w_parent(3), a_parent(3), w_rel(3), r(3), dv(3), da(3)
     integer :: j, k, i0, nd
 
-    w_parent = 0.0_dp
-    a_parent = 0.0_dp
-    st%vel_joint(:, 1) = 0.0_dp
-    st%acc_joint(:, 1) = 0.0_dp
+    w_parent = seed%omega
+    a_parent = seed%alpha
+    st%vel_joint(:, 1) = seed%vel
+    st%acc_joint(:, 1) = seed%acc
     do j = 1, chain%n_bodies
       st%omega(:, j) = w_parent
       st%alpha(:, j) = a_parent

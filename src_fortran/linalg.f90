@@ -3,7 +3,7 @@ module rotorcable_linalg
   use rotorcable_kinds, only: dp
   implicit none
   private
-  public :: solve_dense, solve_least_norm, null_space, solve_spd
+  public :: solve_dense, solve_least_norm, null_space, solve_spd, singular_values, all_finite
   public :: dgetrf, dgetrs, dgemv   ! factors kept across solves, products (ggl_linear_solver)
 
   interface
@@ -68,7 +68,44 @@ module rotorcable_linalg
     end subroutine dpotrs
   end interface
 
+  !> Status returned by the wrappers when their input is not finite (LAPACK would otherwise
+  !> report an illegal argument through xerbla, which prints and cannot be caught).
+  integer, parameter, public :: INFO_NOT_FINITE = -1000
+
 contains
+
+  !> True when every element of a is a finite number.
+  pure logical function all_finite(a)
+    real(dp), intent(in) :: a(..)             !< array of any rank
+    select rank (a)
+    rank (1)
+      all_finite = all(abs(a) <= huge(1.0_dp))
+    rank (2)
+      all_finite = all(abs(a) <= huge(1.0_dp))
+    rank default
+      all_finite = .false.
+    end select
+  end function all_finite
+
+  !> Singular values of an (m,n) matrix, descending (LAPACK dgesvd, no vectors).
+  subroutine singular_values(a, s, info)
+    real(dp), intent(in) :: a(:, :)           !< (m,n) matrix
+    real(dp), intent(out) :: s(:)             !< (min(m,n)) singular values
+    integer, intent(out) :: info              !< LAPACK status (0 = ok)
+    real(dp), allocatable :: aw(:, :), work(:)
+    real(dp) :: u(1, 1), vt(1, 1), wq(1)
+    integer :: m, n
+    m = size(a, 1); n = size(a, 2)
+    s = 0.0_dp
+    if (.not. all_finite(a)) then
+      info = INFO_NOT_FINITE
+      return
+    end if
+    aw = a
+    call dgesvd('N', 'N', m, n, aw, m, s, u, 1, vt, 1, wq, -1, info)
+    allocate (work(int(wq(1))))
+    call dgesvd('N', 'N', m, n, aw, m, s, u, 1, vt, 1, work, size(work), info)
+  end subroutine singular_values
 
   !> Solve A x = b in place (LU with partial pivoting, LAPACK dgesv); info /= 0 if singular.
   subroutine solve_dense(a, b, info)
@@ -79,6 +116,10 @@ contains
     n = size(a, 1)
     if (n == 0) then
       info = 0
+      return
+    end if
+    if (.not. (all_finite(a) .and. all_finite(b))) then
+      info = INFO_NOT_FINITE
       return
     end if
     call dgesv(n, 1, a, n, ipiv, b, n, info)
@@ -96,6 +137,11 @@ contains
     real(dp) :: wq(1)
     integer :: iwq(1)
     m = size(a, 1); n = size(a, 2); ldb = max(m, n)
+    x = 0.0_dp
+    if (.not. (all_finite(a) .and. all_finite(b))) then
+      info = INFO_NOT_FINITE
+      return
+    end if
     aw = a
     allocate (bw(ldb), s(min(m, n)))
     bw = 0.0_dp
@@ -125,6 +171,11 @@ contains
       info = 0
       return
     end if
+    basis = 0.0_dp
+    if (.not. all_finite(a)) then
+      info = INFO_NOT_FINITE
+      return
+    end if
     aw = a
     allocate (s(min(m, n)), vt(n, n))
     call dgesvd('N', 'A', m, n, aw, m, s, u, 1, vt, n, wq, -1, info)
@@ -144,6 +195,10 @@ contains
     n = size(a, 1)
     info = 0
     if (n == 0) return
+    if (.not. (all_finite(a) .and. all_finite(b))) then
+      info = INFO_NOT_FINITE
+      return
+    end if
     call dpotrf('L', n, a, n, info)
     if (info /= 0) return
     call dpotrs('L', n, 1, a, n, b, n, info)

@@ -45,8 +45,9 @@ module rotorcable_modal
 contains
 
   !> Natural frequencies, damped frequencies, damping ratios and mode shapes.
-  subroutine modal_analysis(model, q, lambda, f_undamped, f_damped, zeta, shapes, error)
+  subroutine modal_analysis(model, t, q, lambda, f_undamped, f_damped, zeta, shapes, error)
     type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time of the equilibrium [s]
     real(dp), intent(in) :: q(:)              !< equilibrium coordinates [rad]
     real(dp), intent(in) :: lambda(:)         !< equilibrium multipliers
     real(dp), intent(out) :: f_undamped(:)    !< (nf) undamped natural frequencies [Hz], ascending
@@ -58,22 +59,23 @@ contains
     real(dp), allocatable :: basis(:, :), m_full(:, :), k_full(:, :), d_full(:, :), g_jac(:, :)
     real(dp), allocatable :: m_r(:, :), k_r(:, :), d_r(:, :), a(:, :), b(:, :), w(:), work(:)
     real(dp), allocatable :: ar(:), ai(:), be(:), vr(:, :), vl(:, :), z(:, :)
-    real(dp) :: wq(1), mac, mac_best, omega, s_re, s_im, xr(size(q)), xi(size(q)), num_r, num_i, den_x
+    real(dp) :: wq(1), mac, mac_best, omega, s_re, s_im, w_zero, xr(size(q)), xi(size(q)), num_r, num_i, den_x
 
     nq = model%nq; nc = model%nc; nf = nq - nc
     allocate (basis(nq, nf), m_full(nq, nq), k_full(nq, nq), d_full(nq, nq), g_jac(nc, nq))
-    if (nc > 0) call constraint_jacobian(model, q, g_jac)
+    if (nc > 0) call constraint_jacobian(model, t, q, g_jac)
     call null_space(g_jac, basis, info)
-    call mass_matrix(model, q, m_full)
+    call mass_matrix(model, t, q, m_full)
     n_eval = 0
-    call tangent_stiffness(model, q, lambda, k_full, n_eval)
-    call damping_matrix(model, q, lambda, d_full)
+    call tangent_stiffness(model, t, q, lambda, k_full, n_eval)
+    call damping_matrix(model, t, q, lambda, d_full)
     m_r = matmul(transpose(basis), matmul(m_full, basis))
     k_r = matmul(transpose(basis), matmul(k_full, basis))
     d_r = matmul(transpose(basis), matmul(d_full, basis))
+    ! M and the conservative stiffness are symmetric (round-off aside); D keeps its skew part,
+    ! the gyroscopic (Coriolis) coupling of a turning frame that splits the modes with speed.
     m_r = 0.5_dp*(m_r + transpose(m_r))
     k_r = 0.5_dp*(k_r + transpose(k_r))
-    d_r = 0.5_dp*(d_r + transpose(d_r))
 
     ! Undamped: K_r phi = w^2 M_r phi.
     a = k_r; b = m_r
@@ -85,10 +87,15 @@ contains
       call fatal_error(error, 'modal analysis: generalized symmetric eigenproblem failed (dsygv)')
       return
     end if
-    if (w(1) < 0.0_dp) then
+    ! Eigenvalues within round-off of zero are zero-stiffness (rigid-body) modes: a free pivot
+    ! without springs, a twist without a twist spring.  Only a clearly negative one means an
+    ! unstable equilibrium.
+    w_zero = 1.0e-9_dp*max(maxval(abs(w)), tiny(1.0_dp))
+    if (w(1) < -w_zero) then
       call fatal_error(error, 'modal analysis: the equilibrium is unstable (negative stiffness eigenvalue)')
       return
     end if
+    where (w < w_zero) w = 0.0_dp
     z = a                                     ! M_r-normalised eigenvectors, columns
     f_undamped = sqrt(w)/TWO_PI
     shapes = matmul(basis, z)
@@ -132,13 +139,15 @@ contains
           mac_best = mac; best = k
         end if
       end do
+      f_damped(i) = 0.0_dp
+      zeta(i) = 0.0_dp                        ! a zero-stiffness (rigid-body) mode has no ratio
+      if (best == 0) cycle
       s_re = ar(best)/be(best); s_im = ai(best)/be(best)
       if (s_im > 0.0_dp) then
         f_damped(i) = s_im/TWO_PI
         zeta(i) = -s_re/sqrt(s_re**2 + s_im**2)
-      else
-        f_damped(i) = 0.0_dp
-        zeta(i) = dot_product(z(:, i), matmul(d_r, z(:, i)))/(2.0_dp*max(omega, tiny(1.0_dp)))
+      else if (omega > 0.0_dp) then
+        zeta(i) = dot_product(z(:, i), matmul(d_r, z(:, i)))/(2.0_dp*omega)
       end if
     end do
   end subroutine modal_analysis

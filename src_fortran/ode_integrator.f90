@@ -13,7 +13,7 @@ module rotorcable_ode_integrator
                                          c_funloc, c_f_pointer, c_null_ptr, c_associated
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error
-  use rotorcable_model, only: model_type, solve_accelerations
+  use rotorcable_model, only: model_type, solve_accelerations, switch_times
   use rotorcable_dae_integrator, only: solver_stats, consistent_start
   use rotorcable_gsl_ode_binding
   implicit none
@@ -72,7 +72,8 @@ contains
 
   !> Jacobian for the implicit stepper, by forward differences of the right-hand side
   !> (as a user of the thesis's route would do; the DAE route has the structured one).
-  !> dfdt = 0: the only explicit time dependence is the piecewise-constant force pulse.
+  !> dfdt = 0: the comparisons use scenes whose only explicit time dependence is the
+!> piecewise-constant force pulse.
   integer(c_int) function ode_jacobian(t, y, dfdy, dfdt, params) bind(C)
     real(c_double), value :: t
     real(c_double), intent(in) :: y(*)
@@ -117,7 +118,8 @@ contains
     type(gsl_odeiv2_driver), pointer :: drv
     type(gsl_odeiv2_evolve), pointer :: evo
     type(c_ptr) :: d, old_handler, step_type
-    real(dp) :: y(2*model%nq), vdot(model%nq), lambda(max(model%nc, 1)), t_switch(2), t_stop
+    real(dp) :: y(2*model%nq), vdot(model%nq), lambda(max(model%nc, 1)), t_stop
+    real(dp), allocatable :: t_switch(:)
     real(c_double) :: t
     integer(c_int) :: flag
     integer :: nq, k, s
@@ -153,12 +155,11 @@ contains
     flag = gsl_odeiv2_driver_set_nmax(d, int(settings%max_steps, c_long))
     if (settings%h_max > 0.0_dp) flag = gsl_odeiv2_driver_set_hmax(d, real(settings%h_max, c_double))
 
-    t_switch = huge(1.0_dp)
-    if (model%loads%pulse_body > 0) t_switch = [model%loads%pulse_start, model%loads%pulse_end]
+    call switch_times(model, t_switch)
     t = t_out(1)
     s = 1
     do k = 2, size(t_out)
-      do while (s <= 2)
+      do while (s <= size(t_switch))
         if (t_switch(s) > t_out(k)) exit
         if (t_switch(s) > t) then
           t_stop = t_switch(s)

@@ -3,15 +3,17 @@
 module rotorcable_statics
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error
-  use rotorcable_model, only: model_type, eom_residual, constraint_residual, constraint_jacobian, &
-                              project_positions, total_energy
+  use rotorcable_model, only: model_type, eom_residual, constraint_residual, constraint_jacobian, total_energy
+  use rotorcable_projection, only: project_positions, constraint_rank_margin
   use rotorcable_linalg, only: solve_least_norm, null_space, solve_spd
   implicit none
   private
   public :: static_settings, static_result, solve_static, tangent_stiffness, damping_matrix
 
-  !> Newton settings (from the deck's &solver group).
+  !> Newton settings (from the deck's &solver group) and the time of the equilibrium (a
+  !> moving support's pose, the rotor speed of a hub-frame run are taken at that time).
   type :: static_settings
+    real(dp) :: t = 0.0_dp                    !< time [s]
     real(dp) :: tol_force = 1.0e-10_dp        !< max |generalized force residual| [Nm]
     real(dp) :: tol_constraint = 1.0e-12_dp   !< max |g| [m, rad]
     integer :: max_iterations = 200           !< Newton iterations
@@ -27,27 +29,61 @@ module rotorcable_statics
     real(dp) :: constraint_residual = 0.0_dp  !< final max |g|
   end type static_result
 
+  !> sigma_min/sigma_max of G below which the constraints count as dependent (a regular closed
+  !> chain has 1e-3 to 1e-1; exactly taut or straight chains 1e-16 to 1e-9).
+  real(dp), parameter, public :: RANK_TOL = 1.0e-7_dp
+
 contains
 
-  !> Force residual f0 = -k(q, 0) (no multipliers) at rest.
-  subroutine rest_forces(model, q, lambda, f, n_eval)
+  !> Why a start shape could not be closed: dependent constraints (a straight or taut chain)
+  !> or simply too far.
+  subroutine closure_failure(model, t, q, error)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t, q(:)           !< time, the shape where the projection stopped
+    type(error_type), intent(inout) :: error  !< status
+    real(dp) :: margin
+    margin = constraint_rank_margin(model, t, q)
+    if (margin < RANK_TOL) then
+      call rank_loss_error(model, margin, error)
+    else
+      call fatal_error(error, 'the start shape cannot be closed onto clamp B (projection failed); '// &
+                       'start from a shape nearer the clamp', key='clamp_b.position')
+    end if
+  end subroutine closure_failure
+
+  !> The error for a rank-deficient constraint Jacobian.
+  subroutine rank_loss_error(model, margin, error)
+    type(model_type), intent(in) :: model     !< model
+    real(dp), intent(in) :: margin            !< sigma_min/sigma_max of G
+    type(error_type), intent(inout) :: error  !< status
+    character(len=160) :: buf
+    write (buf, '(a, es9.2, a, es11.4, a)') '(sigma_min/sigma_max = ', margin, '; chain length ', &
+      sum(model%chain%length), ' m)'
+    call fatal_error(error, 'clamp B: the constraint Jacobian has lost rank '//trim(buf)//': the chain '// &
+                     'is straight or taut between the clamps, so its shape and the clamp reactions are not '// &
+                     'determined; move clamp B within reach or give the cable slack', key='clamp_b.position')
+  end subroutine rank_loss_error
+
+  !> Force residual f0 = -k(q, 0) (no multipliers) at rest relative to the model frame.
+  subroutine rest_forces(model, t, q, lambda, f, n_eval)
     type(model_type), intent(inout) :: model
-    real(dp), intent(in) :: q(:), lambda(:)
+    real(dp), intent(in) :: t, q(:), lambda(:)
     real(dp), intent(out) :: f(:)
     integer, intent(inout) :: n_eval
     real(dp) :: zero(model%nq), lam(max(model%nc, 1))
     zero = 0.0_dp
     lam = 0.0_dp
     lam(1:model%nc) = lambda
-    call eom_residual(model, 0.0_dp, q, zero, zero, lam, f)
+    call eom_residual(model, t, q, zero, zero, lam, f)
     n_eval = n_eval + 1
   end subroutine rest_forces
 
   !> Tangent stiffness K = d(-k(q,0) - G^T lambda)/dq at fixed lambda (includes the
   !> curvature of the constraints weighted by lambda), by central differences of the O(n)
   !> residual: truncation ~h^2 ~ 1e-12 relative, 2 nq evaluations.
-  subroutine tangent_stiffness(model, q, lambda, k_tan, n_eval)
+  subroutine tangent_stiffness(model, t, q, lambda, k_tan, n_eval)
     type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time [s]
     real(dp), intent(in) :: q(:)              !< coordinates [rad]
     real(dp), intent(in) :: lambda(:)         !< multipliers
     real(dp), intent(out) :: k_tan(:, :)      !< (nq,nq) [Nm/rad]
@@ -57,17 +93,19 @@ contains
     do i = 1, size(q)
       h = 1.0e-6_dp*max(1.0_dp, abs(q(i)))
       q_try = q; q_try(i) = q(i) + h
-      call rest_forces(model, q_try, lambda, fp, n_eval)
+      call rest_forces(model, t, q_try, lambda, fp, n_eval)
       q_try(i) = q(i) - h
-      call rest_forces(model, q_try, lambda, fm, n_eval)
+      call rest_forces(model, t, q_try, lambda, fm, n_eval)
       k_tan(:, i) = (fp - fm)/(2.0_dp*h)
     end do
   end subroutine tangent_stiffness
 
-  !> Damping matrix D = d(-k)/dqdot at rest (joint dampers; velocity terms vanish at rest),
-  !> by central differences in the rates.
-  subroutine damping_matrix(model, q, lambda, d_mat)
+  !> Damping matrix D = d(-k)/dqdot at rest relative to the model frame, by central
+  !> differences in the rates: the joint dampers and drag, and in a turning frame the
+  !> gyroscopic (Coriolis) terms, which make D unsymmetric.
+  subroutine damping_matrix(model, t, q, lambda, d_mat)
     type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time [s]
     real(dp), intent(in) :: q(:)              !< coordinates [rad]
     real(dp), intent(in) :: lambda(:)         !< multipliers
     real(dp), intent(out) :: d_mat(:, :)      !< (nq,nq) [Nms/rad]
@@ -79,25 +117,25 @@ contains
     h = 1.0e-6_dp
     do i = 1, size(q)
       v = 0.0_dp; v(i) = h
-      call eom_residual(model, 0.0_dp, q, v, zero, lam, fp)
+      call eom_residual(model, t, q, v, zero, lam, fp)
       v(i) = -h
-      call eom_residual(model, 0.0_dp, q, v, zero, lam, fm)
+      call eom_residual(model, t, q, v, zero, lam, fm)
       d_mat(:, i) = (fp - fm)/(2.0_dp*h)
     end do
   end subroutine damping_matrix
 
   !> Multipliers by least squares (G^T lambda = f0), the equilibrium residual f0 - G^T lambda,
   !> the null-space basis of G and the reduced gradient N^T f0.
-  subroutine reduced_gradient(model, q, lambda, f, basis, grad, n_eval)
+  subroutine reduced_gradient(model, t, q, lambda, f, basis, grad, n_eval)
     type(model_type), intent(inout) :: model
-    real(dp), intent(in) :: q(:)
+    real(dp), intent(in) :: t, q(:)
     real(dp), intent(out) :: lambda(:), f(:), basis(:, :), grad(:)
     integer, intent(inout) :: n_eval
     real(dp) :: g_jac(model%nc, model%nq)
     integer :: info
-    call rest_forces(model, q, [real(dp) ::], f, n_eval)
+    call rest_forces(model, t, q, [real(dp) ::], f, n_eval)
     if (model%nc > 0) then
-      call constraint_jacobian(model, q, g_jac)
+      call constraint_jacobian(model, t, q, g_jac)
       call solve_least_norm(transpose(g_jac), f, lambda, info)
       f = f - matmul(lambda, g_jac)
     end if
@@ -131,30 +169,32 @@ contains
     real(dp) :: hess(model%nq - model%nc, model%nq - model%nc), hm(model%nq - model%nc, model%nq - model%nc)
     real(dp) :: z(model%nq - model%nc), q_try(model%nq), lam_try(model%nc), f_try(model%nq)
     real(dp) :: basis_try(model%nq, model%nq - model%nc), grad_try(model%nq - model%nc), g(max(model%nc, 1))
-    real(dp) :: zero(model%nq), mu, scale_h, v_now, v_try
-    logical :: accepted
-    character(len=64) :: buf
+    real(dp) :: zero(model%nq), mu, scale_h, v_now, v_try, t, margin
+    logical :: accepted, converged
+    character(len=96) :: buf
 
     nq = model%nq; nc = model%nc; nf = nq - nc
     zero = 0.0_dp
-    if (project_positions(model, q) > 1.0e-9_dp) then
-      call fatal_error(error, 'the start shape cannot be closed onto clamp B (projection failed); '// &
-                       'start from a shape nearer the clamp')
+    t = settings%t
+    if (project_positions(model, t, q) > 1.0e-9_dp) then
+      call closure_failure(model, t, q, error)
       return
     end if
     mu = 0.0_dp
-    call reduced_gradient(model, q, lambda, f, basis, grad, res%residual_evals)
-    v_now = total_energy(model, q, zero)
-    do it = 1, settings%max_iterations
+    converged = .false.
+    call reduced_gradient(model, t, q, lambda, f, basis, grad, res%residual_evals)
+    v_now = total_energy(model, t, q, zero)
+    do it = 0, settings%max_iterations
       res%force_residual = maxval(abs(f))
       res%constraint_residual = 0.0_dp
       if (nc > 0) then
-        call constraint_residual(model, q, g)
+        call constraint_residual(model, t, q, g)
         res%constraint_residual = maxval(abs(g))
       end if
-      if (res%force_residual <= settings%tol_force .and. res%constraint_residual <= settings%tol_constraint) exit
-      res%iterations = it
-      call tangent_stiffness(model, q, lambda, k_tan, res%residual_evals)
+      converged = res%force_residual <= settings%tol_force .and. res%constraint_residual <= settings%tol_constraint
+      if (converged .or. it == settings%max_iterations) exit
+      res%iterations = it + 1
+      call tangent_stiffness(model, t, q, lambda, k_tan, res%residual_evals)
       res%jacobian_evals = res%jacobian_evals + 1
       hess = matmul(transpose(basis), matmul(k_tan, basis))
       hess = 0.5_dp*(hess + transpose(hess))
@@ -169,9 +209,9 @@ contains
         call solve_spd(hm, z, info)
         if (info == 0) then
           q_try = q + matmul(basis, z)
-          if (project_positions(model, q_try) <= 1.0e-9_dp) then
-            call reduced_gradient(model, q_try, lam_try, f_try, basis_try, grad_try, res%residual_evals)
-            v_try = total_energy(model, q_try, zero)
+          if (project_positions(model, t, q_try) <= 1.0e-9_dp) then
+            call reduced_gradient(model, t, q_try, lam_try, f_try, basis_try, grad_try, res%residual_evals)
+            v_try = total_energy(model, t, q_try, zero)
             accepted = v_try <= v_now + 1.0e-4_dp*dot_product(grad, z) .or. &
                        norm2(grad_try) <= 0.5_dp*norm2(grad)
             if (accepted) exit
@@ -185,10 +225,18 @@ contains
       mu = 0.25_dp*mu
       if (mu < 1.0e-12_dp*scale_h) mu = 0.0_dp
     end do
-    if (res%force_residual > 1.0e3_dp*settings%tol_force .or. &
-        res%constraint_residual > 1.0e3_dp*settings%tol_constraint) then
-      write (buf, '(es10.3,a,es10.3)') res%force_residual, ' / ', res%constraint_residual
-      call fatal_error(error, 'static equilibrium not found (residual force [Nm] / constraint = '//trim(buf)//')')
+    ! Converged only when the test passed: an iteration limit or a stalled line search is
+    ! an error, never "the equilibrium".
+    if (.not. converged) then
+      write (buf, '(es10.3, a, es10.3, a, i0, a)') res%force_residual, ' Nm, |g| = ', res%constraint_residual, &
+        ' after ', res%iterations, ' iterations'
+      call fatal_error(error, 'static equilibrium not found: residual force '//trim(buf)// &
+                       ' (newton_tol, newton_max_iter in &solver)')
+      return
+    end if
+    if (nc > 0) then
+      margin = constraint_rank_margin(model, t, q)
+      if (margin < RANK_TOL) call rank_loss_error(model, margin, error)
     end if
   end subroutine solve_static
 

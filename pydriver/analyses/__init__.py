@@ -1,0 +1,18 @@
+"""The analyses a deck can ask for, each on a :class:`~pydriver.model.Model`:
+static equilibrium, dynamic run, modal analysis (and, built on them, forward flight and the
+Campbell diagram).  :func:`run` dispatches on ``&case analysis``."""
+
+from __future__ import annotations
+
+
+def run(model, run_dir=None):
+    """Run the deck's analysis; time series stream into ``run_dir`` (an output.RunDirectory)."""
+    from pydriver.analyses import dynamics, modal, statics
+    analysis = model.analysis
+    if analysis == "static":
+        return statics.static_analysis(model)
+    if analysis == "modal":
+        return modal.modal_analysis(model)
+    if analysis == "dynamic":
+        return dynamics.dynamic_analysis(model, run_dir)
+    model.deck.fail("case", "analysis", f"analysis '{analysis}' is not available in this version")

@@ -1,0 +1,99 @@
+"""Pieces every analysis reports: reactions, the equilibrium table, per-joint loads, the
+summary's common part and its warnings."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pydriver.assembly import bodies, represented_lengths
+
+RAD2DEG = 180.0 / np.pi
+REACTION_NAMES = ["FA_x", "FA_y", "FA_z", "MA_x", "MA_y", "MA_z", "FB_x", "FB_y", "FB_z", "MB_x", "MB_y", "MB_z"]
+
+
+def reactions(w, has_b: bool) -> dict:
+    """Support-on-chain wrenches in the model frame: {"A": {"F", "M"}, "B": ...}."""
+    out = {"A": {"F": [float(x) for x in w[0:3]], "M": [float(x) for x in w[3:6]]}}
+    if has_b:
+        out["B"] = {"F": [float(x) for x in w[6:9]], "M": [float(x) for x in w[9:12]]}
+    return out
+
+
+def joint_geometry(model) -> dict:
+    """Per joint: the cable length it stands for and the diameter there (for curvature and
+    jacket strain: kappa = bend angle / length, eps = kappa d / 2)."""
+    b = bodies(model.deck)
+    ell = represented_lengths(model.deck, b)
+    d = 2.0 * b.radii
+    d_joint = d.copy()
+    d_joint[1:] = 0.5 * (d[:-1] + d[1:])
+    return {"length": ell, "diameter": d_joint}
+
+
+def joint_columns(model, sample: dict, k=slice(None)) -> dict:
+    """Per-joint loads of samples k as columns: axial and shear force, bending and torsional
+    moment, curvature and jacket strain (docs/model.md, "Internal loads")."""
+    geo = joint_geometry(model)
+    out = {}
+    kappa = sample["bend_angle"][k] / geo["length"]
+    for j in range(model.n_bodies):
+        n = j + 1
+        out[f"axial{n}_N"] = sample["axial"][k, j]
+        out[f"shear{n}_N"] = sample["shear"][k, j]
+        out[f"bending{n}_Nm"] = sample["bending"][k, j]
+        out[f"torsion{n}_Nm"] = sample["torsion"][k, j]
+        out[f"curvature{n}_1pm"] = kappa[..., j]
+        out[f"strain{n}"] = 0.5 * geo["diameter"][j] * kappa[..., j]
+    return out
+
+
+def equilibrium_table(model, sample: dict) -> dict:
+    """The thesis's table columns (body, gamma, beta, CM) plus joint loads and joint points."""
+    nb = model.n_bodies
+    ang = sample["angles"][:, :, 0]
+    cm = sample["cm"][:, :, 0]
+    joints = sample["joints"][:, :, 0]
+    geo = joint_geometry(model)
+    kappa = sample["bend_angle"][0] / geo["length"]
+    return {"body": np.arange(1, nb + 1), "gamma_deg": ang[0] * RAD2DEG, "beta_deg": ang[1] * RAD2DEG,
+            "x_m": cm[0], "y_m": cm[1], "z_m": cm[2],
+            "joint_x_m": joints[0, :nb], "joint_y_m": joints[1, :nb], "joint_z_m": joints[2, :nb],
+            "axial_N": sample["axial"][0], "shear_N": sample["shear"][0], "bending_Nm": sample["bending"][0],
+            "torsion_Nm": sample["torsion"][0], "curvature_1pm": kappa,
+            "strain": 0.5 * geo["diameter"] * kappa}
+
+
+def base_summary(model, analysis: str, wall: float) -> dict:
+    """The summary's common part."""
+    d = model.deck
+    springs = d.values["springs"]["c_beta"]
+    free = [j for j in range(model.n_bodies) if not (j == 0 and d["chain.first_body"] == "clamped")]
+    c_beta = float(np.median(springs[free])) if free else 0.0
+    out = {"case": model.case, "deck": model.name, "analysis": analysis, "wall_time_s": wall,
+           "n_bodies": model.n_bodies, "n_coords": model.nq, "n_constraints": model.nc,
+           "c_beta_Nm_per_rad": c_beta, "frame": "hub" if d.has("loads.rotor_rpm") and d["loads.rotor_rpm"] > 0
+           else "inertial"}
+    if d.has("cable.ei"):
+        out["cable"] = {k: float(d[f"cable.{k}"]) for k in ("ei", "gj", "mass_per_length", "damping_time")
+                        if d[f"cable.{k}"] is not None}
+    return out
+
+
+def straight_zy_warnings(model, beta_deg) -> list:
+    """Warn where the thesis's zy joint sits at beta = 0 in a result.
+
+    There gamma is a twist, so the joint has lost one bending direction: a load across it
+    does no work on any coordinate at first order and is silently carried as if the cable
+    were rigid sideways (docs/model.md, tests/test_hard_cases.py).  ``&chain joint = 'xy'``
+    has no such point.
+    """
+    if model.deck["chain.joint"] != "zy":
+        return []
+    locked_first = model.deck["chain.first_body"] == "clamped"
+    straight = [j + 1 for j in range(model.n_bodies)
+                if not (j == 0 and locked_first) and abs(np.sin(np.radians(beta_deg[j]))) < 1e-6]
+    if not straight:
+        return []
+    return [f"joints {straight} of the thesis's zy parametrisation are straight (beta = 0), where "
+            "gamma is a twist and the joint cannot bend sideways: loads across those joints are "
+            "carried as if the cable were rigid there; use &chain joint = 'xy' (Cardan bending)"]

@@ -1,0 +1,58 @@
+"""Modal analysis about the static equilibrium (docs/model.md, "Modal analysis")."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from pydriver.analyses.common import base_summary, equilibrium_table, reactions, straight_zy_warnings
+from pydriver.analyses.statics import equilibrium
+from pydriver.result import Result
+
+
+def cm_mode_shapes(model, q, shapes, h: float = 1.0e-6) -> np.ndarray:
+    """CM displacement per unit modal coordinate (3 n, n_modes), by central differences of the
+    kinematics along each mode."""
+    out = np.empty((3 * model.n_bodies, shapes.shape[1]))
+    for i in range(shapes.shape[1]):
+        cp = model.core.shape(q + h * shapes[:, i])["cm"]
+        cm = model.core.shape(q - h * shapes[:, i])["cm"]
+        out[:, i] = ((cp - cm) / (2.0 * h)).reshape(-1)
+    return out
+
+
+def modal_analysis(model) -> Result:
+    """Frequencies, damping ratios and mode shapes about the equilibrium."""
+    t0 = time.perf_counter()
+    q, lam, stats = equilibrium(model)
+    modes = model.core.modal(q, lam)
+    zero = np.zeros((model.nq, 1))
+    sample = model.core.sample([0.0], q[:, None], zero)
+    cm_shapes = cm_mode_shapes(model, q, modes["shapes"])
+    wall = time.perf_counter() - t0
+    nf = model.nq - model.nc
+    fu, fd, zeta = modes["f_undamped_hz"], modes["f_damped_hz"], modes["zeta"]
+    summary = base_summary(model, "modal", wall)
+    summary.update(solver=stats, max_constraint_violation_m=float(sample["g_max"][0]),
+                   reactions=reactions(sample["wrenches"][0], model.nc > 0),
+                   tip_m=[float(x) for x in sample["joints"][:, -1, 0]],
+                   frequencies_hz=[float(x) for x in fu], damped_frequencies_hz=[float(x) for x in fd],
+                   damping_ratios=[float(x) for x in zeta],
+                   n_zero_stiffness_modes=int(np.count_nonzero(fu == 0.0)))
+    # Mode shapes as CM displacements, each scaled to a largest component of 1.
+    scale = np.max(np.abs(cm_shapes), axis=0)
+    scale[scale == 0] = 1.0
+    table_modes = {"mode": np.arange(1, nf + 1), "f_undamped_hz": fu, "f_damped_hz": fd, "zeta": zeta}
+    for j in range(model.n_bodies):
+        for c, name in enumerate("xyz"):
+            table_modes[f"d{name}{j + 1}"] = cm_shapes[3 * j + c] / scale
+    table = equilibrium_table(model, sample)
+    warnings = straight_zy_warnings(model, table["beta_deg"])
+    if summary["n_zero_stiffness_modes"]:
+        warnings.append(f"{summary['n_zero_stiffness_modes']} zero-stiffness (rigid-body) modes: a coordinate "
+                        "without a spring and without gravity across it (frequency 0 Hz)")
+    if warnings:
+        summary["warnings"] = warnings
+    return Result(summary=summary, table=table,
+                  extra={"q": q, "lambda": lam, "modes": table_modes, "mode_shapes_q": modes["shapes"]})

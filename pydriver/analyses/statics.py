@@ -1,0 +1,64 @@
+"""Static equilibrium (relative to the model frame: in a turning hub frame, the quasi-static
+hover shape of thesis section 5.5)."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from pydriver.analyses.common import base_summary, equilibrium_table, reactions, straight_zy_warnings
+from pydriver.errors import RunError
+from pydriver.result import Result
+
+
+def equilibrium(model, t: float = 0.0):
+    """The equilibrium of the model's steady loads from its start shape.
+
+    Newton on the constraint manifold (``&solver static_method = 'newton'``) or damped dynamic
+    settling, the thesis's route (section 5.3, ``'settle'``).  A force pulse is a dynamic
+    excitation, not a steady load: the equilibrium is that of the model without it.
+
+    Returns
+    -------
+    q, lam : numpy.ndarray
+        Coordinates [rad] and multipliers.
+    stats : dict
+        Solver statistics.
+    """
+    if model.deck["loads.pulse_body"] > 0:
+        model = model.with_changes({"loads.pulse_body": 0})
+    s = model.deck.values["solver"]
+    if s["static_method"] == "newton":
+        return model.core.static(model.q0, t, s["newton_tol"], s["newton_max_iter"])
+    session = model.core.start(model.solver_settings(), t, model.q0, np.zeros_like(model.q0))
+    try:
+        q, v = session.advance([t + s["t_end"]])
+    finally:
+        session.close()
+    stats = dict(session.stats)
+    vmax = float(np.max(np.abs(v))) if v.size else 0.0
+    if vmax > s["settle_tol"]:
+        raise RunError(f"deck '{model.name}': dynamic settling: not at rest at t_end (max |qdot| = {vmax:.3e} "
+                       "rad/s > settle_tol); increase t_end")
+    sample = model.core.sample([t + s["t_end"]], q, np.zeros_like(q))
+    return q[:, 0], sample["lambda"][0], stats
+
+
+def static_analysis(model) -> Result:
+    """The equilibrium, its reactions, shape table and joint loads."""
+    t0 = time.perf_counter()
+    q, lam, stats = equilibrium(model)
+    zero = np.zeros((model.nq, 1))
+    sample = model.core.sample([0.0], q[:, None], zero)
+    wall = time.perf_counter() - t0
+    summary = base_summary(model, "static", wall)
+    summary.update(solver=stats, max_constraint_violation_m=float(sample["g_max"][0]),
+                   reactions=reactions(sample["wrenches"][0], model.nc > 0),
+                   tip_m=[float(x) for x in sample["joints"][:, -1, 0]],
+                   energy_J={"kinetic": 0.0, "potential": float(sample["potential"][0])})
+    table = equilibrium_table(model, sample)
+    warnings = straight_zy_warnings(model, table["beta_deg"])
+    if warnings:
+        summary["warnings"] = warnings
+    return Result(summary=summary, table=table, extra={"q": q, "lambda": lam})

@@ -1,0 +1,201 @@
+"""From a validated deck to the model in the core: bodies, joint constants, loads, supports
+and the rotor, in SI units and radians (docs/model.md states every choice made here).
+
+The joint constants come either from the deck's direct ``&springs`` (the thesis's c_y, c_z) or
+from physical cable parameters ``&cable`` (EI, GJ, mass per length, structural damping), which
+hold for any n: a Hencky bar chain (Hencky 1920; Wang, Zhang, Kitipornchai, "Hencky bar-chain
+model", 2013), where a joint stands for the cable between the midpoints of its two bodies,
+c_j = EI / l_j with l_j that length, so 2 EI / l for a joint on a clamp (half an element), and
+a body held by clamp B is a half element whose joint stands for the whole of it and half the
+previous body.  This converges at O(1/n^2) (tests/test_cable_parameters.py).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pydriver.core import CoreModel
+from pydriver.deckfile import Deck
+
+DEG = np.pi / 180.0
+RPM = 2.0 * np.pi / 60.0
+
+
+@dataclass
+class Bodies:
+    """Per-body geometry and inertia of the chain (SI)."""
+
+    lengths: np.ndarray
+    radii: np.ndarray
+    masses: np.ndarray
+    locked: np.ndarray            #: joint j locked (bool)
+    physical: bool                #: joint constants from &cable
+
+
+def rot_z(a: float) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def rot_y(b: float) -> np.ndarray:
+    c, s = np.cos(b), np.sin(b)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+def bodies(deck: Deck) -> Bodies:
+    """Lengths, radii, masses and locked joints of the deck's chain."""
+    n = deck.n_bodies
+    physical = deck.has("cable.ei")
+    if deck.has("chain.body_length"):
+        lengths = np.asarray(deck["chain.body_length"], float)
+    else:
+        total = deck["chain.total_length"]
+        lengths = np.full(n, total / n)
+        if physical and deck["clamp_b.active"]:
+            # The body held by clamp B is a half element (module docstring).
+            ell = total / (n - 0.5)
+            lengths = np.full(n, ell)
+            lengths[-1] = 0.5 * ell
+    radii = 0.5 * np.asarray(deck["chain.diameter"], float)
+    if deck.has("chain.density"):
+        masses = deck["chain.density"] * np.pi * radii**2 * lengths          # eq. 4.51
+    elif deck.has("chain.total_mass"):
+        masses = deck["chain.total_mass"] * lengths / lengths.sum()
+    elif deck.has("chain.body_mass"):
+        masses = np.asarray(deck["chain.body_mass"], float)
+    else:
+        masses = deck["cable.mass_per_length"] * lengths
+    locked = np.zeros(n, bool)
+    # Thesis reading: a clamped first body is a locked joint 1.  With physical parameters the
+    # clamp holds the cable end through joint 1 and its 2 EI / l spring (a half element).
+    locked[0] = deck["chain.first_body"] == "clamped" and not physical
+    return Bodies(lengths, radii, masses, locked, physical)
+
+
+def represented_lengths(deck: Deck, b: Bodies) -> np.ndarray:
+    """The cable length each joint stands for (module docstring): half of each adjacent
+    body, a whole clamped last body, half the first body for a joint on clamp A."""
+    n = len(b.lengths)
+    ell = np.empty(n)
+    ell[0] = 0.5 * b.lengths[0]
+    ell[1:] = 0.5 * (b.lengths[:-1] + b.lengths[1:])
+    if deck["clamp_b.active"] and n > 1:
+        ell[-1] = 0.5 * b.lengths[-2] + b.lengths[-1]
+    return ell
+
+
+def joint_constants(deck: Deck, b: Bodies, q0: np.ndarray, first_coord: np.ndarray) -> tuple:
+    """Stiffness, damping and rest angle per coordinate (eq. 4.78-4.86)."""
+    joint = deck["chain.joint"]
+    n = deck.n_bodies
+    per_joint = {"zy": 2, "xy": 2, "xyz": 3}[joint]
+    c_rows, d_rows, rest_rows = [], [], []
+    if b.physical:
+        ell = represented_lengths(deck, b)
+        c_bend = deck["cable.ei"] / ell
+        c_twist = deck["cable.gj"] / ell if deck.has("cable.gj") else np.zeros(n)
+        if deck["chain.first_body"] == "pivot":
+            c_bend[0] = c_twist[0] = 0.0
+        tau = deck["cable.damping_time"]
+        for j in range(n):
+            c_rows.append([c_bend[j], c_bend[j], c_twist[j]][:per_joint])
+            d_rows.append([tau * c_bend[j], tau * c_bend[j], tau * c_twist[j]][:per_joint])
+            rest_rows.append([0.0] * per_joint)
+        if deck["chain.first_body"] == "clamped":
+            # The clamp at A holds the cable end at the start shape's first-body orientation:
+            # joint 1's spring rests there.
+            k = first_coord[0] - 1
+            rest_rows[0] = list(q0[k:k + per_joint])
+    else:
+        s = {k: deck[f"springs.{k}"] for k in ("c_gamma", "c_beta", "d_gamma", "d_beta", "d_twist")}
+        c_tw = deck["springs.c_twist"] if deck["springs.c_twist"] is not None else np.zeros(n)
+        for j in range(n):
+            if joint == "zy":
+                c_rows.append([s["c_gamma"][j], s["c_beta"][j]])
+                d_rows.append([s["d_gamma"][j], s["d_beta"][j]])
+                rest_rows.append([deck["springs.rest_gamma_deg"][j] * DEG, deck["springs.rest_beta_deg"][j] * DEG])
+            else:
+                c_rows.append([s["c_beta"][j], s["c_beta"][j], c_tw[j]][:per_joint])
+                d_rows.append([s["d_beta"][j], s["d_beta"][j], s["d_twist"][j]][:per_joint])
+                rest_rows.append([0.0] * per_joint)
+    free = [j for j in range(n) if not b.locked[j]]
+    c = np.array([x for j in free for x in c_rows[j]])
+    d = np.array([x for j in free for x in d_rows[j]])
+    rest = np.array([x for j in free for x in rest_rows[j]])
+    return c, d, rest
+
+
+def rotor(deck: Deck) -> dict | None:
+    """The rotor's speed profile and centre, or None for a still rotor."""
+    rpm = deck["loads.rotor_rpm"] if deck.has("loads.rotor_rpm") else 0.0
+    if rpm == 0.0:
+        return None
+    offset = np.asarray(deck["loads.rotor_offset"], float)
+    # rotor_offset = the deck origin relative to the rotor centre; the axis is the deck's z.
+    centre = np.array([-offset[0], -offset[1], 0.0])
+    return {"profile": "constant", "centre": centre, "params": [rpm * RPM], "hub": True, "body_couples": True}
+
+
+def build(deck: Deck) -> tuple[CoreModel, dict]:
+    """Build the deck's model in the core.
+
+    Returns
+    -------
+    core : CoreModel
+    description : dict
+        What was built, as plain numbers: ``bodies``, ``first_coord``, the joint constants
+        ``stiffness``/``damping``/``rest`` per coordinate, ``clamp`` (position, rotation or
+        None), ``rotor`` (or None), and the deck's start state ``q0``, ``v0`` [rad, rad/s].
+    """
+    b = bodies(deck)
+    gamma = np.asarray(deck["shape.gamma_deg"], float) * DEG
+    beta = np.asarray(deck["shape.beta_deg"], float) * DEG
+    core = CoreModel(deck.name, b.lengths, b.radii, b.masses, deck["chain.joint"], b.locked,
+                     np.vstack([gamma, beta]))
+    core.set_base(np.zeros(3), np.eye(3))
+    core.finish()                                  # kinematics for the start shape
+    q0, v0 = core.thesis_coordinates(gamma, beta, np.asarray(deck["shape.gamma_rate_deg"]) * DEG,
+                                     np.asarray(deck["shape.beta_rate_deg"]) * DEG)
+    first_coord = _first_coords(b.locked, {"zy": 2, "xy": 2, "xyz": 3}[deck["chain.joint"]])
+    c, d, rest = joint_constants(deck, b, q0, first_coord)
+    if np.any(c != 0.0) or np.any(d != 0.0):
+        core.add_load("joint_springs", reals=np.concatenate([c, d, rest]), context="&springs")
+    g = np.asarray(deck["loads.gravity"], float)
+    if np.any(g != 0.0):
+        core.add_load("gravity", reals=g)
+    if deck["loads.pulse_body"] > 0:
+        core.add_load("pulse", ints=[deck["loads.pulse_body"]],
+                      reals=list(deck["loads.pulse_force"]) + [deck["loads.pulse_start"], deck["loads.pulse_end"]])
+    if np.any(deck["loads.tip_force"] != 0.0):
+        core.add_load("tip_force", reals=deck["loads.tip_force"])
+    if "drag" in deck.groups:
+        stream = np.asarray(deck["drag.stream_velocity"], float) - np.array([deck["drag.forward_speed"], 0.0, 0.0])
+        core.add_load("drag", reals=np.concatenate([[deck["drag.air_density"]], stream, deck["drag.cd"]]))
+    rot = rotor(deck)
+    if rot is not None:
+        core.set_rotor(rot["profile"], rot["centre"], rot["params"], rot["hub"], rot["body_couples"])
+    if deck["clamp_b.active"]:
+        if deck["clamp_b.from_start"]:
+            shape = core.shape(q0)
+            position, rotation = shape["joints"][-1], shape["last_rotation"]
+        else:
+            position = np.asarray(deck["clamp_b.position"], float)
+            rotation = rot_z(deck["clamp_b.gamma_deg"] * DEG) @ rot_y(deck["clamp_b.beta_deg"] * DEG)
+        core.set_clamp(position, rotation)
+    core.finish()
+    clamp = (np.asarray(position, float), np.asarray(rotation, float)) if deck["clamp_b.active"] else None
+    return core, {"bodies": b, "first_coord": first_coord, "stiffness": c, "damping": d, "rest": rest,
+                  "clamp": clamp, "rotor": rot, "q0": q0, "v0": v0}
+
+
+def _first_coords(locked: np.ndarray, per_joint: int) -> np.ndarray:
+    """1-based index of every joint's first coordinate (0 for a locked joint)."""
+    out = np.zeros(len(locked), int)
+    k = 1
+    for j, lk in enumerate(locked):
+        if not lk:
+            out[j] = k
+            k += per_joint
+    return out

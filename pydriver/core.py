@@ -1,0 +1,242 @@
+"""The one Python module that calls the compiled core (``pydriver._rotorcable``, f2py) and
+unpacks its positional results.  Everything else works with :class:`CoreModel` and
+:class:`CoreSession` and gets named numpy arrays and exceptions back.
+
+Every core routine returns a status: 0 ok; 1 bad input (with the input at fault as
+``group.key``), raised as :class:`~pydriver.errors.DeckError`; 2 a failed computation, raised
+as :class:`~pydriver.errors.RunError`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pydriver import _rotorcable
+from pydriver.errors import DeckError, RunError
+
+_api = _rotorcable.rotorcable_api
+_probes = _rotorcable.rotorcable_probes
+
+JOINT_KINDS = {"zy": 1, "xy": 2, "xyz": 3}
+ROTOR_PROFILES = {"constant": 1, "runup": 2, "table": 3}
+LINEAR_SOLVERS = {"block": 1, "dense": 2}
+
+
+def _text(x) -> str:
+    if isinstance(x, np.ndarray):
+        x = x.tobytes()
+    if isinstance(x, bytes):
+        x = x.decode(errors="replace")
+    return str(x).strip().strip("\x00").strip()
+
+
+def _raise(deck: str, stat: int, key, msg, context: str = ""):
+    if stat == 0:
+        return
+    msg = _text(msg)
+    if context:
+        msg = f"{context}: {msg}"
+    key = _text(key)
+    if stat == 1:
+        group, _, name = key.partition(".")
+        raise DeckError(deck, group, name, msg)
+    raise RunError(f"deck '{deck}': {msg}")
+
+
+def _ints(a) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.int32).reshape(-1)
+
+
+def _reals(a) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=float).reshape(-1)
+
+
+class CoreModel:
+    """A model built in the core from its flat description; freed with the object.
+
+    Parameters
+    ----------
+    deck : str
+        The deck's name, for messages.
+    """
+
+    def __init__(self, deck: str, lengths, radii, masses, joint: str, locked, locked_angles):
+        self.deck = deck
+        self.handle = None
+        handle, stat, key, msg = _api.rc_model_new(
+            _reals(lengths), _reals(radii), _reals(masses), JOINT_KINDS[joint], _ints(locked),
+            np.asfortranarray(np.asarray(locked_angles, float).reshape(2, -1)))
+        self.handle = int(handle)
+        _raise(deck, stat, key, msg)
+        self.n_bodies = len(lengths)
+        self.nq = self.nc = 0
+
+    def __del__(self):
+        if getattr(self, "handle", None):
+            _api.rc_model_free(self.handle)
+            self.handle = None
+
+    # -- building -------------------------------------------------------------------------
+    def add_load(self, kind: str, ints=(), reals=(), context: str = ""):
+        """Add a load of a kind the core's load factory knows."""
+        stat, key, msg = _api.rc_model_add_load(self.handle, kind, _ints(ints), _reals(reals))
+        _raise(self.deck, stat, key, msg, context)
+
+    def set_base(self, position, rotation, motion=((), ())):
+        stat, key, msg = _api.rc_model_set_base(self.handle, _reals(position), np.asfortranarray(rotation, float),
+                                                _ints(motion[0]), _reals(motion[1]))
+        _raise(self.deck, stat, key, msg, "clamp A")
+
+    def set_clamp(self, position, rotation, motion=((), ())):
+        stat, key, msg = _api.rc_model_set_clamp(self.handle, _reals(position), np.asfortranarray(rotation, float),
+                                                 _ints(motion[0]), _reals(motion[1]))
+        _raise(self.deck, stat, key, msg, "clamp B")
+
+    def set_rotor(self, profile: str, centre, params, hub: bool, body_couples: bool):
+        stat, key, msg = _api.rc_model_set_rotor(self.handle, ROTOR_PROFILES[profile], _reals(centre),
+                                                 _reals(params), int(hub), int(body_couples))
+        _raise(self.deck, stat, key, msg, "rotor")
+
+    def finish(self):
+        nq, nc, stat, key, msg = _api.rc_model_finish(self.handle)
+        _raise(self.deck, stat, key, msg)
+        self.nq, self.nc = int(nq), int(nc)
+
+    # -- kinematics -----------------------------------------------------------------------
+    def thesis_coordinates(self, gamma, beta, gamma_rate, beta_rate):
+        """Coordinates and rates of a shape in the thesis's angles [rad, rad/s]."""
+        q, v = _api.rc_thesis_coordinates(self.handle, _reals(gamma), _reals(beta), _reals(gamma_rate),
+                                          _reals(beta_rate), self.nq)
+        return q, v
+
+    def shape(self, q, t: float = 0.0) -> dict:
+        """Thesis angles (n, 2) [rad], CMs (n, 3), joint points (n+1, 3) [m], R_n at (q, t)."""
+        angles, cm, joints, rot = _api.rc_shape(self.handle, float(t), _reals(q), self.n_bodies)
+        return {"angles": angles.T.copy(), "cm": cm.T.copy(), "joints": joints.T.copy(), "last_rotation": rot}
+
+    # -- analyses -------------------------------------------------------------------------
+    def static(self, q_start, t: float, tol: float, max_iter: int):
+        """Static equilibrium: (q, lambda, stats dict)."""
+        q, lam, st, stat, key, msg = _api.rc_static(self.handle, float(t), _reals(q_start), max(self.nc, 1),
+                                                    float(tol), int(max_iter))
+        _raise(self.deck, stat, key, msg)
+        stats = dict(zip(("newton_iterations", "residual_evals", "jacobian_evals", "line_search_cuts"),
+                         (int(x) for x in st)))
+        return q, lam[:self.nc].copy(), stats
+
+    def modal(self, q, lam, t: float = 0.0) -> dict:
+        """Modal analysis about (q, lambda): frequencies, damping, mode shapes in q."""
+        lam_in = np.zeros(max(self.nc, 1))
+        lam_in[:self.nc] = lam
+        fu, fd, zeta, shapes, stat, key, msg = _api.rc_modal(self.handle, float(t), _reals(q), lam_in,
+                                                             self.nq - self.nc)
+        _raise(self.deck, stat, key, msg)
+        return {"f_undamped_hz": fu, "f_damped_hz": fd, "zeta": zeta, "shapes": shapes}
+
+    def start(self, settings: dict, t0: float, q0, v0) -> "CoreSession":
+        """Start a time integration; the session's q0, v0 are the consistent start."""
+        real = [settings["rtol"], settings["atol"], settings["atol_multiplier"], settings["h_max"]]
+        ints = [settings["max_steps"], LINEAR_SOLVERS[settings["linear_solver"]], settings["jacobian_max_age"],
+                int(settings["vector_kernels"] == "compiled")]
+        session, q, v, stat, key, msg = _api.rc_dynamic_start(self.handle, _reals(real), _ints(ints), float(t0),
+                                                              _reals(q0), _reals(v0))
+        s = CoreSession(self, int(session), q, v)
+        if stat:
+            s.close()
+            _raise(self.deck, stat, key, msg)
+        return s
+
+    def sample(self, t, q, v) -> dict:
+        """Output quantities at the states q, v (nq, nt) and times t (nt)."""
+        t = _reals(t)
+        (wr, kin, pot, gmax, angles, cm, joints, axial, shear, bending, torsion, bend, psi, lam, stat, key,
+         msg) = _api.rc_sample(self.handle, t, np.asfortranarray(q, float), np.asfortranarray(v, float),
+                               self.n_bodies, max(self.nc, 1))
+        _raise(self.deck, stat, key, msg)
+        return {"wrenches": wr.T, "kinetic": kin, "potential": pot, "g_max": gmax, "angles": angles,
+                "cm": cm, "joints": joints, "axial": axial.T, "shear": shear.T, "bending": bending.T,
+                "torsion": torsion.T, "bend_angle": bend.T, "psi": psi, "lambda": lam[:self.nc].T}
+
+    # -- probes (tests and benchmarks) ----------------------------------------------------
+    def evaluate(self, q, v, vdot, lam, t: float = 0.0) -> dict:
+        lam_in = np.zeros(max(self.nc, 1))
+        lam_in[:self.nc] = lam
+        (m, mj, k, res, g, gj, gb, gv, vd, la, wr, en, stat, msg) = _probes.rc_probe_evaluate(
+            self.handle, float(t), _reals(q), _reals(v), _reals(vdot), lam_in)
+        _raise(self.deck, stat, "", msg)
+        nc = self.nc
+        return {"M": m, "M_jourdain": mj, "k": k, "residual": res, "g": g[:nc], "G": gj[:nc],
+                "Gdot_v": gb[:nc], "G_v": gv[:nc], "vdot": vd, "lambda": la[:nc], "wrenches": wr,
+                "energy": float(en)}
+
+    def consistent_ggl_state(self, q, v, t: float = 0.0):
+        """GGL unknowns y = (q, v, lambda, 0) and yd = (v, vdot, 0, 0) at the consistent start."""
+        n = 2 * self.nq + 2 * self.nc
+        y, yd, stat, msg = _probes.rc_probe_consistent_start(self.handle, float(t), _reals(q), _reals(v), n)
+        _raise(self.deck, stat, "", msg)
+        return y, yd
+
+    def ggl_residual(self, y, yd, t: float = 0.0):
+        r, stat, msg = _probes.rc_probe_ggl_residual(self.handle, float(t), _reals(y), _reals(yd))
+        _raise(self.deck, stat, "", msg)
+        return r
+
+    def iteration_matrix(self, y, yd, cj: float, b, n_rep: int = 1, t: float = 0.0) -> dict:
+        (jac, x, nbf, nbs, ndf, nds, stat, msg) = _probes.rc_probe_iteration_matrix(
+            self.handle, float(t), float(cj), _reals(y), _reals(yd), np.asfortranarray(b, float), int(n_rep))
+        _raise(self.deck, stat, "", msg)
+        return {"jacobian": jac, "x_block": x, "ns_block_factor": nbf, "ns_block_solve": nbs,
+                "ns_dense_factor": ndf, "ns_dense_solve": nds}
+
+    def time_kernels(self, y, yd, n_rep: int, t: float = 0.0) -> dict:
+        r, ns_res, ns_jac, ns_mass, stat, msg = _probes.rc_probe_time_kernels(
+            self.handle, float(t), _reals(y), _reals(yd), int(n_rep))
+        _raise(self.deck, stat, "", msg)
+        return {"residual": r, "residual_ns": ns_res, "jacobian_ns": ns_jac, "mass_matrix_ns": ns_mass}
+
+    def integrate_timed(self, method: int, settings: dict, t0: float, t_end: float, q0, v0, n_samples: int,
+                        baumgarte_omega: float = 50.0) -> dict:
+        """One timed integration (1 IDA, 2 GSL rk8pd, 3 GSL msbdf) with CM samples."""
+        real = [settings["rtol"], settings["atol"], settings["atol_multiplier"], settings["h_max"]]
+        ints = [settings["max_steps"], LINEAR_SOLVERS[settings["linear_solver"]], settings["jacobian_max_age"],
+                int(settings["vector_kernels"] == "compiled")]
+        (cm, tip, gmax, st, cpu, wall, stat, msg) = _probes.rc_probe_integrate(
+            self.handle, int(method), _reals(real), _ints(ints), float(baumgarte_omega), float(t0), float(t_end),
+            _reals(q0), _reals(v0), int(n_samples), self.n_bodies)
+        _raise(self.deck, stat, "", msg)
+        return {"cm_samples": cm, "tip_end": tip, "gmax": float(gmax),
+                "stats": dict(zip(("steps", "residual_evals", "jacobian_evals", "error_test_failures",
+                                   "convergence_failures"), (int(x) for x in st))),
+                "cpu_s": float(cpu), "wall_s": float(wall)}
+
+    def rank_margin(self, q, t: float = 0.0) -> float:
+        """sigma_min / sigma_max of the constraint Jacobian (1 for a free end)."""
+        return float(_probes.rc_probe_rank_margin(self.handle, float(t), _reals(q)))
+
+
+class CoreSession:
+    """A time integration in progress in the core (IDA kept between calls)."""
+
+    def __init__(self, model: CoreModel, handle: int, q0, v0):
+        self.model = model
+        self.handle = handle
+        self.q0, self.v0 = q0, v0
+        self.stats: dict = {}
+
+    def advance(self, t):
+        """States (nq, len(t)) at the increasing times t; raises RunError on failure."""
+        t = _reals(t)
+        q, v, st, stat, key, msg = _api.rc_dynamic_advance(self.handle, t, self.model.nq)
+        self.stats = dict(zip(("steps", "residual_evals", "jacobian_evals", "error_test_failures",
+                               "convergence_failures"), (int(x) for x in st)))
+        _raise(self.model.deck, stat, key, msg)
+        return q, v
+
+    def close(self):
+        if self.handle:
+            _api.rc_dynamic_free(self.handle)
+            self.handle = 0
+
+    def __del__(self):
+        if getattr(self, "handle", 0) and getattr(self, "model", None) is not None and self.model.handle:
+            self.close()

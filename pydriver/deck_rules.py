@@ -1,0 +1,129 @@
+"""Cross-key rules of a deck: what the schema's per-key checks cannot see.
+
+Each rule raises the deck's :class:`~pydriver.errors.DeckError` naming the group, the key and
+the reason.  Rules about sizes that only the assembled model knows (reach of clamp B, enough
+coordinates for the constraints) are checked by the core when the model is built.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pydriver.deckfile import Deck
+
+#: Largest number of output samples of one run.  At one sample per 1e-4 s this is a week of
+#: simulated time; beyond it the request is a typo (dt_out = 1e-10) or a runaway t_end.
+MAX_SAMPLES = 50_000_000
+
+
+def check(deck: Deck) -> None:
+    """Apply every rule; the first violation raises."""
+    _chain(deck)
+    _joint_constants(deck)
+    _clamp_b(deck)
+    _loads(deck)
+    _output_times(deck)
+
+
+def _one_of(deck: Deck, keys: list[str], what: str):
+    given = [k for k in keys if deck.has(k)]
+    if len(given) != 1:
+        group, key = (given[1] if len(given) > 1 else keys[0]).split(".")
+        names = ", ".join(k.split(".")[1] if k.startswith(group) else k for k in keys)
+        deck.fail(group, key, f"give exactly one of {names} ({what})")
+    return given[0]
+
+
+def _chain(deck: Deck):
+    _one_of(deck, ["chain.total_length", "chain.body_length"], "the cable's length")
+    if not deck.has("chain.diameter"):
+        deck.fail("chain", "diameter", "is required (cable diameter)")
+    _one_of(deck, ["chain.density", "chain.total_mass", "chain.body_mass", "cable.mass_per_length"],
+            "the cable's mass")
+    if deck["chain.n_bodies"] < 2 and deck["clamp_b.active"]:
+        deck.fail("chain", "n_bodies", "a chain held by clamp B needs at least 2 bodies")
+
+
+def _joint_constants(deck: Deck):
+    joint = deck["chain.joint"]
+    physical = "cable" in deck.groups and deck.has("cable.ei")
+    if "cable" in deck.groups and not deck.has("cable.ei"):
+        deck.fail("cable", "ei", "is required in &cable (bending stiffness EI)")
+    if physical:
+        if joint == "zy":
+            deck.fail("chain", "joint", "physical cable parameters (&cable) need joint = 'xy' or 'xyz': the "
+                                        "thesis's zy joint is singular on a straight cable")
+        for key in ("c_gamma", "c_beta", "c_twist", "d_gamma", "d_beta", "d_twist"):
+            if deck.has(f"springs.{key}"):
+                deck.fail("springs", key, "give the joint constants either in &springs or through &cable, "
+                                          "not both")
+        if joint == "xyz" and not deck.has("cable.gj"):
+            deck.fail("cable", "gj", "is required with joint = 'xyz' (torsional stiffness GJ)")
+        if joint != "xyz" and deck.has("cable.gj"):
+            deck.fail("cable", "gj", "a torsional stiffness needs the twist coordinate of joint = 'xyz'")
+    if joint in ("xy", "xyz"):
+        # Both Cardan angles bend the cable: c_beta/d_beta act on both.  The thesis's gamma
+        # spring has no coordinate here, and rest angles or start rates in gamma/beta do not
+        # translate into Cardan angles uniquely: refuse rather than guess.
+        for key in ("c_gamma", "d_gamma"):
+            if np.any(deck[f"springs.{key}"] != 0.0):
+                deck.fail("springs", key, f"with joint = '{joint}' both bending angles use c_beta and d_beta; "
+                                          "c_gamma and d_gamma have no coordinate (set them to 0)")
+        for key in ("rest_gamma_deg", "rest_beta_deg"):
+            if np.any(deck[f"springs.{key}"] != 0.0):
+                deck.fail("springs", key, f"rest angles are not supported with joint = '{joint}' (straight rest)")
+        for key in ("gamma_rate_deg", "beta_rate_deg"):
+            if np.any(deck[f"shape.{key}"] != 0.0):
+                deck.fail("shape", key, f"start rates are not supported with joint = '{joint}'")
+    if joint == "xyz" and not physical:
+        if not deck.has("springs.c_twist"):
+            deck.fail("springs", "c_twist", "is required with joint = 'xyz' (the twist's own torsion spring; "
+                                            "0 leaves the twist free, a zero-stiffness mode)")
+    elif joint != "xyz":
+        for key in ("c_twist", "d_twist"):
+            if deck.has(f"springs.{key}"):
+                deck.fail("springs", key, "a twist spring needs the twist coordinate of joint = 'xyz'")
+
+
+def _clamp_b(deck: Deck):
+    if not deck["clamp_b.active"]:
+        for key in ("position", "gamma_deg", "beta_deg", "from_start"):
+            if deck.has(f"clamp_b.{key}") and key != "from_start":
+                deck.fail("clamp_b", key, "clamp B is not active (active = .false.): set active = .true. "
+                                          "or remove the key")
+        if deck["clamp_b.moves_with"] != "hub":
+            deck.fail("clamp_b", "moves_with", "clamp B is not active")
+        return
+    if deck["clamp_b.from_start"]:
+        return
+    if not deck.has("clamp_b.position"):
+        deck.fail("clamp_b", "position", "needs 3 coordinates (or from_start = .true.)")
+    for key in ("gamma_deg", "beta_deg"):
+        if not deck.has(f"clamp_b.{key}"):
+            deck.fail("clamp_b", key, "gamma_deg and beta_deg of the last body are needed (or from_start = .true.)")
+
+
+def _loads(deck: Deck):
+    n = deck.n_bodies
+    body = deck["loads.pulse_body"]
+    if body > n:
+        deck.fail("loads", "pulse_body", f"must be 0 (no pulse) or a body index 1..{n}")
+    if body > 0:
+        if not deck["loads.pulse_end"] > deck["loads.pulse_start"]:
+            deck.fail("loads", "pulse_end", "must be later than pulse_start")
+        if deck["case.analysis"] == "dynamic" and deck["loads.pulse_start"] >= deck["solver.t_end"]:
+            deck.fail("loads", "pulse_start", f"the pulse starts at {deck['loads.pulse_start']:g} s, at or after "
+                                              f"the end of the run (t_end = {deck['solver.t_end']:g} s)")
+    if deck["clamp_b.active"] and np.any(deck["loads.tip_force"] != 0.0):
+        deck.fail("loads", "tip_force", "a tip force needs a free end (clamp_b active = .false.)")
+
+
+def _output_times(deck: Deck):
+    if deck["case.analysis"] != "dynamic":
+        return
+    n = deck["solver.t_end"] / deck["solver.dt_out"]
+    if not math.isfinite(n) or n + 1 > MAX_SAMPLES:
+        deck.fail("solver", "dt_out", f"t_end / dt_out = {n:.3g} output samples: more than {MAX_SAMPLES:.0e}; "
+                                      "choose a larger dt_out")

@@ -1,0 +1,369 @@
+"""Reading a deck: Fortran namelist text -> validated values, by f90nml and the schema.
+
+f90nml (PyPI) gives the namelist semantics (repeat counts ``10*3.05``, element assignments
+``key(3) = ...``, comments, one-line groups, tabs, long lines); :mod:`pydriver.schema` says what
+each key must be.  Every problem becomes a :class:`~pydriver.errors.DeckError` naming the deck,
+the group, the key and the reason.  Cross-key rules come afterwards (:mod:`pydriver.deck_rules`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import math
+import re
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import f90nml
+import numpy as np
+
+from pydriver.errors import DeckError
+from pydriver.schema import GROUPS, REQUIRED_GROUPS, Key, lookup
+
+# Comments and blank lines are removed before f90nml sees the text: its scanner walks the text
+# one character at a time in Python (26 s for 10 MB of comment lines), a compiled regular
+# expression does it in milliseconds.  Quoted strings are kept whole ('it''s' doubles a quote).
+_COMMENT = re.compile(r"""('(?:[^'\n]|'')*'|"(?:[^"\n]|"")*")|![^\n]*""")
+_BLANK_LINES = re.compile(r"\n[ \t\r]*(?=\n)")
+
+
+@dataclass
+class Deck:
+    """A validated deck: every schema key of every group, defaults filled in.
+
+    Attributes
+    ----------
+    name : str
+        The deck's file name (for messages).
+    values : dict
+        ``values[group][key]``: float, int, bool, str, or a numpy array for array keys;
+        None where a key has no default and was not given.
+    given : set of (group, key)
+        The keys the deck sets explicitly.
+    groups : set of str
+        The groups present in the deck.
+    path : Path or None
+        The file it was read from.
+    """
+
+    name: str
+    values: dict
+    given: set = field(default_factory=set)
+    groups: set = field(default_factory=set)
+    path: Path | None = None
+    raw: dict = field(default_factory=dict, repr=False)      #: f90nml's values, per group
+    starts: dict = field(default_factory=dict, repr=False)   #: f90nml's start indices
+
+    def with_values(self, changes: dict) -> "Deck":
+        """A new deck with ``changes = {"group.key": value}`` (Python values or namelist
+        value texts), validated like a deck read from a file."""
+        raw = {g: dict(v) for g, v in self.raw.items()}
+        starts = {g: dict(v) for g, v in self.starts.items()}
+        for dotted, value in changes.items():
+            group, _, name = dotted.lower().partition(".")
+            key = lookup(group, name)
+            if key is None:
+                raise DeckError(self.name, group, name, "unknown key" if group in GROUPS else
+                                f"unknown group &{group}")
+            if isinstance(value, str) and (key.type != "str" or value[:1] in "'\""):
+                value = parse_value_text(key, value, self.name)
+            if isinstance(value, np.ndarray):
+                value = value.tolist()
+            elif isinstance(value, tuple):
+                value = list(value)
+            raw.setdefault(group, {})[name] = value
+            starts.get(group, {}).pop(name, None)
+        deck = validate(raw, starts, self.name)
+        deck.path = self.path
+        return deck
+
+    def __getitem__(self, dotted: str):
+        group, key = dotted.split(".")
+        return self.values[group][key]
+
+    def has(self, dotted: str) -> bool:
+        """True when ``group.key`` was set in the deck (not just defaulted)."""
+        group, key = dotted.split(".")
+        return (group, key) in self.given
+
+    @property
+    def n_bodies(self) -> int:
+        return int(self.values["chain"]["n_bodies"])
+
+    def fail(self, group: str, key: str, reason: str):
+        """Raise the DeckError of this deck."""
+        raise DeckError(self.name, group, key, reason)
+
+
+def strip_comments(text: str) -> str:
+    """The namelist text without comments and blank lines (quoted strings untouched)."""
+    return _BLANK_LINES.sub("", _COMMENT.sub(lambda m: m.group(1) or "", text))
+
+
+def parse_namelist(text: str, deck: str):
+    """f90nml's parse of a namelist text; any parse problem becomes a DeckError.
+
+    f90nml's warnings (a value it would drop, e.g. ``a(3) = 1, 2``) are errors here, and what
+    it prints on malformed input is captured, never shown.
+    """
+    sink = io.StringIO()
+    try:
+        with warnings.catch_warnings(), contextlib.redirect_stdout(sink):
+            warnings.simplefilter("error")
+            return f90nml.reads(text)
+    except Warning as exc:
+        msg = str(exc).replace("f90nml: warning: ", "")
+        raise DeckError(deck, "", "", f"namelist: {msg} (an element assignment a(i) = takes one "
+                                      "value; give the whole array, a(i:j) = ..., or one element "
+                                      "per assignment)") from None
+    except Exception as exc:                       # f90nml raises several types on bad text
+        detail = str(exc) or type(exc).__name__
+        raise DeckError(deck, "", "", f"not a valid Fortran namelist ({detail}): check for an "
+                                      "unclosed quote or parenthesis, or a group not ended by '/'") from None
+
+
+def read_deck(path) -> Deck:
+    """Read and validate a deck file.
+
+    Raises
+    ------
+    DeckError
+        Missing file, namelist syntax, unknown group or key, wrong type, shape or range.
+    """
+    path = Path(path)
+    name = path.name
+    if not path.is_file():
+        raise DeckError(name, "", "", "deck file not found")
+    try:
+        text = path.read_text(encoding="utf-8", errors="strict")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DeckError(name, "", "", f"cannot read the deck: {exc}") from None
+    deck = deck_from_text(text, name)
+    deck.path = path
+    return deck
+
+
+def deck_from_text(text: str, name: str) -> Deck:
+    """Validate a namelist text (see :func:`read_deck`)."""
+    nml = parse_namelist(strip_comments(text), name)
+    raw: dict[str, dict] = {}
+    starts: dict[str, dict] = {}
+    for group, body in nml.items():
+        group = group.lower()
+        if group not in GROUPS:
+            raise DeckError(name, group, "", f"unknown group &{group}; known groups: "
+                                             + ", ".join("&" + g for g in GROUPS))
+        if group in raw or isinstance(body, list):
+            raise DeckError(name, group, "", f"group &{group} appears more than once")
+        raw[group] = {k.lower(): v for k, v in body.items()}
+        starts[group] = {k.lower(): v for k, v in getattr(body, "start_index", {}).items()}
+        for key in raw[group]:
+            if lookup(group, key) is None:
+                raise DeckError(name, group, key, f"unknown key; &{group} has: "
+                                                  + ", ".join(GROUPS[group]))
+    for group in REQUIRED_GROUPS:
+        if group not in raw:
+            raise DeckError(name, group, "", f"group &{group} is missing")
+    return validate(raw, starts, name)
+
+
+def validate(raw: dict, starts: dict, name: str) -> Deck:
+    """Turn raw values ``raw[group][key]`` (f90nml's Python values) into a :class:`Deck`."""
+    n_key = lookup("chain", "n_bodies")
+    if "n_bodies" not in raw.get("chain", {}):
+        raise DeckError(name, "chain", "n_bodies", "is required (number of rigid bodies)")
+    n = normalize(n_key, raw["chain"]["n_bodies"], None, 0, name)
+    values: dict[str, dict] = {}
+    given = set()
+    for group, keys in GROUPS.items():
+        values[group] = {}
+        for key_name, key in keys.items():
+            if key_name in raw.get(group, {}):
+                start = starts.get(group, {}).get(key_name)
+                values[group][key_name] = normalize(key, raw[group][key_name], start, n, name)
+                given.add((group, key_name))
+            else:
+                values[group][key_name] = default_value(key, n)
+    return Deck(name=name, values=values, given=given, groups=set(raw), raw=raw, starts=starts)
+
+
+def array_length(key: Key, n: int) -> int | None:
+    """Number of values an array key takes (None: any number)."""
+    return {"vec3": 3, "body": n, "joint": n}.get(key.shape)
+
+
+def default_value(key: Key, n: int):
+    """The schema default of a key, shaped (None if it has none)."""
+    if key.default is None:
+        return None
+    if not key.is_array:
+        return key.default
+    length = array_length(key, n)
+    d = np.atleast_1d(np.asarray(key.default, dtype=float if key.type == "real" else object))
+    if length is not None and d.size == 1:
+        d = np.full(length, d[0], dtype=d.dtype)
+    return d
+
+
+def normalize(key: Key, raw, start, n: int, deck: str):
+    """Check one key's value against the schema and return it in its Python form."""
+    def fail(reason):
+        raise DeckError(deck, key.group, key.name, reason)
+
+    items = raw if isinstance(raw, list) else [raw]
+    if not key.is_array:
+        if start is not None and start != [1]:
+            fail("is not an array: no index allowed")
+        if len(items) != 1:
+            fail(f"takes one value, got {len(items)}")
+        if items[0] is None:
+            fail("has no value")
+        return _element(key, items[0], fail)
+    length = array_length(key, n)
+    offset = (start[0] - 1) if start else 0
+    if start and len(start) > 1:
+        fail("takes one index")
+    if offset < 0:
+        fail(f"index {offset + 1} is out of range (indices start at 1)")
+    broadcast = (length is not None and key.shape != "vec3" and not start and len(items) == 1
+                 and not isinstance(raw, list))
+    if broadcast:
+        if items[0] is None:
+            fail("has no value")
+        value = _element(key, items[0], fail)
+        return np.full(length, value, dtype=float if key.type == "real" else object)
+    if length is None:
+        length = offset + len(items)
+    # A whole-array assignment must give every element (Fortran would keep the old values of
+    # the rest silently: 'gravity = 0.0, 0.0' would keep g_z); an element assignment
+    # 'key(i) = v' changes element i only.
+    if offset + len(items) > length or (not start and len(items) != length):
+        what = {"vec3": "3 values", "body": f"{length} values (one per body)",
+                "joint": f"{length} values (one per joint)"}[key.shape]
+        fail(f"needs {what}, got {offset + len(items)}")
+    base = default_value(key, n)
+    out = [None] * length if base is None else list(base)
+    for i, item in enumerate(items):
+        if item is not None:                         # a null value keeps the element's default
+            out[offset + i] = _element(key, item, fail)
+    missing = [i + 1 for i, v in enumerate(out) if v is None]
+    if missing:
+        what = {"vec3": "3 values", "body": f"{length} values (one per body)",
+                "joint": f"{length} values (one per joint)", "list": "a value for every element"}[key.shape]
+        fail(f"needs {what}; element{'s' if len(missing) > 1 else ''} "
+             f"{', '.join(map(str, missing[:8]))}{' ...' if len(missing) > 8 else ''} not set")
+    return np.asarray(out, dtype=float if key.type == "real" else object)
+
+
+def _element(key: Key, v, fail):
+    """One scalar value of the key's type, finite and in range."""
+    if key.type == "real":
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            fail(f"not a number: {v!r}")
+        v = float(v)
+        if not math.isfinite(v):
+            fail(f"must be finite, got {v}")
+    elif key.type == "int":
+        if isinstance(v, bool) or not isinstance(v, int):
+            fail(f"not an integer: {v!r}")
+    elif key.type == "bool":
+        if not isinstance(v, bool):
+            fail(f"not a logical (.true. or .false.): {v!r}")
+        return v
+    else:
+        if not isinstance(v, str):
+            fail(f"not a string: {v!r} (quote it: '...')")
+        v = v.strip()
+        if key.choices and v not in key.choices:
+            fail(f"must be {key.range_text()}, got '{v}'")
+        return v
+    lo_bad = v < key.low or (key.low_open and v == key.low)
+    hi_bad = v > key.high or (key.high_open and v == key.high)
+    if lo_bad or hi_bad:
+        fail(_range_reason(key, v))
+    return v
+
+
+def _range_reason(key: Key, v) -> str:
+    if key.low == 0.0 and key.low_open and key.high == math.inf:
+        return f"must be positive, got {v:g}"
+    if key.low == 0.0 and key.high == math.inf:
+        return f"must not be negative, got {v:g}"
+    if key.type == "int" and key.high == math.inf:
+        return f"must be at least {key.low:g}, got {v}"
+    return f"must be {key.range_text()}, got {v:g}"
+
+
+def parse_value_text(key: Key, text: str, deck: str = "--set"):
+    """The Python value of a namelist value text for ``key`` (e.g. ``"90.0, 10*0.0"``)."""
+    nml = parse_namelist(f"&{key.group}\n {key.name} = {text}\n/\n", deck)
+    return nml[key.group].get(key.name)
+
+
+def patch_deck(src, dst, changes: dict) -> Path:
+    """Copy deck ``src`` to ``dst`` with ``changes = {group: {key: value}}`` applied by f90nml.
+
+    Values are Python values or namelist value texts (``"35.0"``, ``"90.0, 10*0.0"``,
+    ``"'modal'"``); keys are checked against the schema.  ``key(i)`` changes one element of an
+    array key (the other elements keep the base deck's values).  Everything else of the deck
+    (comments, order, other keys) is kept; a missing group is added.
+    """
+    name = Path(src).name
+    base = None
+    patch = f90nml.Namelist()
+    for group, keys in changes.items():
+        group = group.lower()
+        patch[group] = f90nml.Namelist()
+        for key_name, value in keys.items():
+            m = re.fullmatch(r"\s*([a-z_]\w*)\s*(?:\(\s*(\d+)\s*\))?\s*", key_name, re.I)
+            key = lookup(group, m.group(1)) if m else None
+            if key is None:
+                raise DeckError(name, group, key_name, "unknown key")
+            if isinstance(value, str) and (key.type != "str" or value[:1] in "'\""):
+                value = parse_value_text(key, value, name)
+            if isinstance(value, np.ndarray):
+                value = value.tolist()
+            if m.group(2):
+                # One element: the whole array with that element changed (f90nml patches whole
+                # assignments); the base values come from the validated base deck.
+                if base is None:
+                    base = read_deck(src)
+                index = int(m.group(2))
+                array = base[f"{group}.{key.name}"]
+                if array is None or not key.is_array or not 1 <= index <= len(array):
+                    raise DeckError(name, group, key.name, f"has no element {index}")
+                array = list(np.asarray(array).tolist())
+                array[index - 1] = value[0] if isinstance(value, list) else value
+                value = array
+            patch[group][key.name] = value
+    # The whole deck is parsed and written again by f90nml: its in-place patch mode garbles
+    # repeat counts ("90.0, 10*0.0" patched to eleven zeros comes out as "0.0, 0.0*0.0").
+    nml = parse_namelist(strip_comments(Path(src).read_text()), name)
+    for group, keys in patch.items():
+        if group not in nml:
+            nml[group] = f90nml.Namelist()
+        for key_name, value in keys.items():
+            nml[group][key_name] = value
+            if key_name in getattr(nml[group], "start_index", {}):
+                del nml[group].start_index[key_name]
+    out = io.StringIO()
+    what = "; ".join(f"&{g} {k} = {v if isinstance(v, str) else _nml_value(v)}"
+                     for g, ks in changes.items() for k, v in ks.items())
+    out.write(f"! {name} with {what[:2000]}\n")
+    nml.uppercase = False
+    nml.write(out)
+    Path(dst).write_text(out.getvalue())
+    return Path(dst)
+
+
+def _nml_value(v) -> str:
+    """A Python value as namelist text (for groups the patch adds)."""
+    if isinstance(v, list):
+        return ", ".join(_nml_value(x) for x in v)
+    if isinstance(v, bool):
+        return ".true." if v else ".false."
+    if isinstance(v, str):
+        return "'" + v.replace("'", "''") + "'"
+    return repr(v)

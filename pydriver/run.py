@@ -1,0 +1,88 @@
+"""``run_deck``: read a deck once, build its model once, run its analysis, write its files."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from pydriver.analyses import run
+from pydriver.model import Model
+from pydriver.output import RunDirectory, write_files
+from pydriver.result import Result, require_finite
+
+
+def run_deck(path, out=None, plots: bool = False) -> Result:
+    """Run a deck and return its results; write files only when ``out`` is given.
+
+    Parameters
+    ----------
+    path : str or Path or Model
+        Fortran namelist deck (see ``inputs/``), or a :class:`~pydriver.model.Model`.
+    out : str or Path, optional
+        Output directory.  It ends up holding exactly this run's files (``summary.json`` and
+        the tables, time series, modes and plots of the analysis), all or none: a failed run
+        leaves it as it was.
+    plots : bool
+        Also write PNG plots (needs matplotlib).
+
+    Returns
+    -------
+    Result
+
+    Raises
+    ------
+    DeckError
+        Bad input, naming the deck, group, key and reason.
+    RunError
+        The solver failed on a valid deck.
+    OSError
+        The output directory cannot be written (raised before the computation).
+    """
+    model = path if isinstance(path, Model) else Model.from_deck(path)
+    if out is None:
+        result = run(model)
+        require_finite(result, model.name)
+        return result
+    with RunDirectory(Path(out)) as run_dir:
+        result = run(model, run_dir)
+        require_finite(result, model.name)
+        write_files(result, run_dir, plots)
+        run_dir.commit()
+    return result
+
+
+def deck_info(path) -> dict:
+    """Read, validate and build a deck; return its sizes, analysis and case name."""
+    m = Model.from_deck(path)
+    return {"n_bodies": m.n_bodies, "n_coords": m.nq, "n_constraints": m.nc, "analysis": m.analysis,
+            "case": m.case, "pulse_body": int(m.deck["loads.pulse_body"]),
+            "pulse_end": float(m.deck["loads.pulse_end"])}
+
+
+def _model(path_or_model) -> Model:
+    return path_or_model if isinstance(path_or_model, Model) else Model.from_deck(path_or_model)
+
+
+def shape(path, q, t: float = 0.0) -> dict:
+    """Thesis angles [deg], centres of mass and joint points [m] of a deck's chain at ``q``."""
+    m = _model(path)
+    s = m.core.shape(np.asarray(q, float), t)
+    return {"angles_deg": np.degrees(s["angles"]), "cm": s["cm"], "joints": s["joints"]}
+
+
+def evaluate_model(path, q, v=None, vdot=None, lam=None, t: float = 0.0) -> dict:
+    """Every model quantity of the deck's chain at one state (for tests and analysis).
+
+    Returns a dict with ``M`` (composite-rigid-body), ``M_jourdain`` (thesis eq. 4.87), ``k``,
+    ``residual`` (M vdot - k - G^T lambda by inverse dynamics), ``g``, ``G``, ``Gdot_v`` (the
+    acceleration bias, rheonomic terms included), ``G_v`` (G v + g_t), ``vdot``/``lambda`` of
+    eq. 3.55, ``wrenches`` (F_A, M_A, F_B, M_B) and ``energy``.
+    """
+    m = _model(path)
+    nq = m.nq
+    q = np.asarray(q, float)
+    v = np.zeros(nq) if v is None else np.asarray(v, float)
+    vdot = np.zeros(nq) if vdot is None else np.asarray(vdot, float)
+    lam = np.zeros(m.nc) if lam is None else np.asarray(lam, float)
+    return m.core.evaluate(q, v, vdot, lam, t)

@@ -1,0 +1,229 @@
+"""The deck schema: every namelist key of a rotorcable deck in one table.
+
+Each :class:`Key` has its group, type, shape, unit, allowed range or choices, default and a
+one-line doc.  This one table drives
+
+* validation and the error messages (:mod:`pydriver.deckfile`: deck, group, key, reason),
+* ``docs/deck_reference.md`` (:func:`reference_markdown`, checked in CI to be current),
+* the sweep's key handling (which keys are arrays, how a swept value is parsed).
+
+Shapes: ``scalar``; ``vec3`` (exactly 3 values); ``body`` and ``joint`` (one value per body or
+per joint, n = ``&chain n_bodies``; joint j connects body j-1, or the base for j = 1, to body j;
+a single value is used for all of them); ``list`` (any number of values, a table or series).
+Cross-key rules (exactly one of ``density``/``total_mass``/..., a tip force needs a free end, ...)
+are in :mod:`pydriver.deck_rules`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+INF = math.inf
+
+
+@dataclass(frozen=True)
+class Key:
+    """One deck key."""
+
+    group: str
+    name: str
+    type: str                     #: 'real' | 'int' | 'bool' | 'str'
+    shape: str = "scalar"         #: 'scalar' | 'vec3' | 'body' | 'joint' | 'list'
+    unit: str = "-"
+    default: object = None        #: None = no default (required where a rule needs it)
+    doc: str = ""
+    low: float = -INF             #: allowed range [low, high]; open ends with low_open/high_open
+    high: float = INF
+    low_open: bool = False
+    high_open: bool = False
+    choices: tuple = ()           #: allowed values of a 'str' key
+
+    @property
+    def is_array(self) -> bool:
+        return self.shape != "scalar"
+
+    def range_text(self) -> str:
+        """The allowed values as a short text (for errors and the reference)."""
+        if self.choices:
+            return " | ".join(f"'{c}'" for c in self.choices)
+        if self.type not in ("real", "int"):
+            return ""
+        lo, hi = self.low, self.high
+        if lo == -INF and hi == INF:
+            return "finite"
+        if hi == INF:
+            return f"{'>' if self.low_open else '>='} {_num(lo)}"
+        if lo == -INF:
+            return f"{'<' if self.high_open else '<='} {_num(hi)}"
+        return f"{'(' if self.low_open else '['}{_num(lo)}, {_num(hi)}{')' if self.high_open else ']'}"
+
+
+def _num(x) -> str:
+    return f"{x:g}"
+
+
+POS = dict(low=0.0, low_open=True)        # > 0
+NONNEG = dict(low=0.0)                    # >= 0
+
+
+def _keys() -> list[Key]:
+    k = []
+    add = k.append
+    # &case --------------------------------------------------------------------------------
+    add(Key("case", "name", "str", default="", doc="case name (summary, tables); default: the deck's file stem"))
+    add(Key("case", "analysis", "str", choices=("static", "dynamic", "modal", "flight", "campbell"),
+            doc="static equilibrium, dynamic run, modal analysis about the equilibrium, forward flight "
+                "to a periodic steady state, or Campbell diagram over rotor speed"))
+    add(Key("case", "description", "str", default="", doc="free text"))
+    add(Key("case", "start", "str", default="shape", choices=("shape", "equilibrium"),
+            doc="dynamic start: the deck's shape (made consistent) or at rest in the static equilibrium"))
+    # &chain -------------------------------------------------------------------------------
+    add(Key("chain", "n_bodies", "int", low=1, high=2000, doc="number of rigid bodies"))
+    add(Key("chain", "total_length", "real", unit="m", **POS, doc="cable length, cut into equal bodies"))
+    add(Key("chain", "body_length", "real", "body", "m", **POS,
+            doc="length of each body (instead of total_length)"))
+    add(Key("chain", "diameter", "real", "body", "m", **POS, doc="cable diameter (per body or one value)"))
+    add(Key("chain", "density", "real", unit="kg/m^3", **POS, doc="material density (mass = rho pi d^2/4 L)"))
+    add(Key("chain", "total_mass", "real", unit="kg", **POS, doc="cable mass, shared by length"))
+    add(Key("chain", "body_mass", "real", "body", "kg", **POS, doc="mass of each body (connectors, sleeves)"))
+    add(Key("chain", "first_body", "str", default="clamped", choices=("clamped", "pivot"),
+            doc="clamped: joint 1 locked at the start angles (thesis); pivot: joint 1 free at A"))
+    add(Key("chain", "joint", "str", default="zy", choices=("zy", "xy", "xyz"),
+            doc="joint parametrisation: thesis gamma/beta (zy), Cardan bending (xy), Cardan bending + twist (xyz)"))
+    # &shape -------------------------------------------------------------------------------
+    add(Key("shape", "gamma_deg", "real", "body", "deg", doc="start shape: thesis angle gamma of each body"))
+    add(Key("shape", "beta_deg", "real", "body", "deg", doc="start shape: thesis angle beta of each body"))
+    add(Key("shape", "gamma_rate_deg", "real", "body", "deg/s", default=0.0, doc="start rate of gamma (zy only)"))
+    add(Key("shape", "beta_rate_deg", "real", "body", "deg/s", default=0.0, doc="start rate of beta (zy only)"))
+    # &springs -----------------------------------------------------------------------------
+    add(Key("springs", "c_gamma", "real", "joint", "Nm/rad", 0.0, "torsion spring on gamma (zy)", **NONNEG))
+    add(Key("springs", "c_beta", "real", "joint", "Nm/rad", 0.0, "bending spring (beta; both Cardan angles)", **NONNEG))
+    add(Key("springs", "d_gamma", "real", "joint", "Nms/rad", 0.0, "damper on gamma (zy)", **NONNEG))
+    add(Key("springs", "d_beta", "real", "joint", "Nms/rad", 0.0, "bending damper", **NONNEG))
+    add(Key("springs", "c_twist", "real", "joint", "Nm/rad", None, "twist spring (xyz, required there)", **NONNEG))
+    add(Key("springs", "d_twist", "real", "joint", "Nms/rad", 0.0, "twist damper (xyz)", **NONNEG))
+    add(Key("springs", "rest_gamma_deg", "real", "joint", "deg", 0.0, "spring rest angle of gamma (zy)"))
+    add(Key("springs", "rest_beta_deg", "real", "joint", "deg", 0.0, "spring rest angle of beta (zy)"))
+    # &cable: physical parameters ----------------------------------------------------------
+    add(Key("cable", "ei", "real", unit="N m^2", **POS,
+            doc="bending stiffness EI; joint springs c = EI/l, 2 EI/l at a joint on a clamp"))
+    add(Key("cable", "gj", "real", unit="N m^2", **POS, doc="torsional stiffness GJ (joint = 'xyz')"))
+    add(Key("cable", "mass_per_length", "real", unit="kg/m", **POS, doc="mass per length (instead of &chain masses)"))
+    add(Key("cable", "damping_time", "real", unit="s", default=0.0, **NONNEG,
+            doc="structural damping, stiffness-proportional: d = damping_time * c at every joint"))
+    # &clamp_a / &clamp_b ------------------------------------------------------------------
+    add(Key("clamp_a", "moves_with", "str", default="hub", choices=("hub", "blade"),
+            doc="support A is fixed on the hub, or moves with the blade (&blade)"))
+    add(Key("clamp_b", "active", "bool", default=False, doc="clamp B holds the last body (6 constraint rows)"))
+    add(Key("clamp_b", "from_start", "bool", default=False, doc="take B's pose from the start shape"))
+    add(Key("clamp_b", "position", "real", "vec3", "m", doc="clamp point p_B (end of the last body)"))
+    add(Key("clamp_b", "gamma_deg", "real", unit="deg", doc="orientation of the last body, thesis gamma"))
+    add(Key("clamp_b", "beta_deg", "real", unit="deg", doc="orientation of the last body, thesis beta"))
+    add(Key("clamp_b", "moves_with", "str", default="hub", choices=("hub", "blade"),
+            doc="clamp B is fixed on the hub, or moves with the blade (&blade)"))
+    # &loads -------------------------------------------------------------------------------
+    add(Key("loads", "gravity", "real", "vec3", "m/s^2", (0.0, 0.0, -9.81), "gravitational acceleration"))
+    add(Key("loads", "rotor_rpm", "real", unit="rpm", **NONNEG,
+            doc="rotor speed about the deck's z axis (same as &rotor rpm; hub-frame run)"))
+    add(Key("loads", "rotor_offset", "real", "vec3", "m", (0.0, 0.0, 0.0),
+            doc="deck origin (clamp A) relative to the rotor centre (x, y used)"))
+    add(Key("loads", "pulse_body", "int", default=0, low=0, doc="body loaded by a force pulse (0 = none)"))
+    add(Key("loads", "pulse_force", "real", "vec3", "N", (0.0, 0.0, 0.0), "pulse force at that body's CM"))
+    add(Key("loads", "pulse_start", "real", unit="s", default=0.0, **NONNEG, doc="pulse start time"))
+    add(Key("loads", "pulse_end", "real", unit="s", default=0.0, **NONNEG, doc="pulse end time"))
+    add(Key("loads", "tip_force", "real", "vec3", "N", (0.0, 0.0, 0.0), "constant force at a free tip"))
+    # &drag --------------------------------------------------------------------------------
+    add(Key("drag", "air_density", "real", unit="kg/m^3", default=1.225, **POS,
+            doc="air density (ISA sea level by default)"))
+    add(Key("drag", "cd", "real", "body", default=1.2, **NONNEG,
+            doc="cross-flow drag coefficient of the cylinder (1.2: subcritical Reynolds number)"))
+    add(Key("drag", "stream_velocity", "real", "vec3", "m/s", (0.0, 0.0, 0.0),
+            doc="free-stream air velocity in the inertial frame"))
+    add(Key("drag", "forward_speed", "real", unit="m/s", default=0.0, **NONNEG,
+            doc="forward flight speed along the inertial +x axis (adds -V e_x to the stream)"))
+    # &solver ------------------------------------------------------------------------------
+    add(Key("solver", "t_end", "real", unit="s", default=1.0, **POS, doc="end time of a dynamic run"))
+    add(Key("solver", "dt_out", "real", unit="s", default=1.0e-2, **POS, doc="output interval"))
+    add(Key("solver", "rtol", "real", default=1.0e-8, low=1.0e-14, high=1.0, low_open=False,
+            doc="relative tolerance (IDA)"))
+    add(Key("solver", "atol", "real", default=1.0e-10, **POS, doc="absolute tolerance on q [rad], v [rad/s]"))
+    add(Key("solver", "atol_multiplier", "real", unit="N, Nm", default=1.0e4, **POS,
+            doc="absolute tolerance on the multipliers (Newton test only)"))
+    add(Key("solver", "h_max", "real", unit="s", default=0.0, **NONNEG, doc="maximum step (0 = none)"))
+    add(Key("solver", "max_steps", "int", default=500000, low=1, doc="step budget of the whole run"))
+    add(Key("solver", "newton_tol", "real", unit="Nm", default=1.0e-10, **POS,
+            doc="static equilibrium: max |generalized force|"))
+    add(Key("solver", "newton_max_iter", "int", default=200, low=1, doc="static equilibrium: Newton iterations"))
+    add(Key("solver", "static_method", "str", default="newton", choices=("newton", "settle"),
+            doc="equilibrium by Newton, or by damped dynamic settling (thesis 5.3)"))
+    add(Key("solver", "settle_tol", "real", unit="rad/s", default=1.0e-8, **POS,
+            doc="settled when max |qdot| < settle_tol"))
+    add(Key("solver", "linear_solver", "str", default="block", choices=("block", "dense"),
+            doc="IDA linear solver: Schur-complement blocks or SUNDIALS's dense LU"))
+    add(Key("solver", "jacobian_max_age", "int", default=50, low=1,
+            doc="steps over which the finite-difference part of the Jacobian is kept"))
+    add(Key("solver", "vector_kernels", "str", default="compiled", choices=("compiled", "sundials"),
+            doc="IDA's N_Vector operations: compiled loops or the library's own"))
+    add(Key("solver", "output_format", "str", default="auto", choices=("auto", "csv", "hdf5"),
+            doc="time series file: timeseries.csv, timeseries.h5 (HDF5), or CSV up to 5e6 values, HDF5 beyond"))
+    return k
+
+
+KEYS: list[Key] = _keys()
+GROUPS: dict[str, dict[str, Key]] = {}
+for _k in KEYS:
+    GROUPS.setdefault(_k.group, {})[_k.name] = _k
+
+#: Groups a deck must have; the others are optional.
+REQUIRED_GROUPS = ("case", "chain", "shape")
+
+GROUP_DOCS = {
+    "case": "what to run",
+    "chain": "the bodies and joints",
+    "shape": "start shape (thesis angles of every body) and rates",
+    "springs": "joint springs and dampers, the thesis's direct constants",
+    "cable": "physical cable parameters; the joint constants are derived for any n",
+    "clamp_a": "support A at the start of the chain (the deck origin)",
+    "clamp_b": "support B holding the last body",
+    "loads": "gravity, rotor speed (legacy), force pulse, tip force",
+    "drag": "aerodynamic drag by the cross-flow principle",
+    "solver": "time integration, statics and output settings",
+}
+
+
+def lookup(group: str, name: str) -> Key | None:
+    """The schema entry of ``group.name`` (lower case), or None if there is none."""
+    return GROUPS.get(group.lower(), {}).get(name.lower())
+
+
+def reference_markdown() -> str:
+    """``docs/deck_reference.md``: the schema as tables, one per group (generated)."""
+    lines = ["# Deck reference", "",
+             "Generated from `pydriver/schema.py` by `python -m pydriver schema-doc`; do not edit by hand "
+             "(CI checks that this file is current).", "",
+             "A deck is a Fortran namelist file: groups `&name ... /`, keys `key = value`, arrays as "
+             "`key = v1, v2, 3*v3` or element by element `key(2) = v`, comments after `!`.  "
+             "SI units; angles in degrees.  Shapes: `body`/`joint` take one value per body or joint "
+             "(n = `n_bodies`) or a single value for all; `vec3` exactly three; `list` any number.  "
+             f"Required groups: {', '.join('&' + g for g in REQUIRED_GROUPS)}.", ""]
+    for group, keys in GROUPS.items():
+        lines += [f"## &{group}", "", GROUP_DOCS.get(group, ""), "",
+                  "| key | type | shape | unit | allowed | default | meaning |",
+                  "|---|---|---|---|---|---|---|"]
+        for key in keys.values():
+            default = "—" if key.default is None else _default_text(key.default)
+            lines.append(f"| `{key.name}` | {key.type} | {key.shape} | {key.unit} | {key.range_text()} "
+                         f"| {default} | {key.doc} |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def _default_text(v) -> str:
+    if isinstance(v, bool):
+        return ".true." if v else ".false."
+    if isinstance(v, str):
+        return f"'{v}'"
+    if isinstance(v, (tuple, list)):
+        return ", ".join(_num(x) for x in v)
+    return _num(v)

@@ -1,0 +1,191 @@
+!> The stabilised index-2 DAE of rotorcable in the Gear-Gupta-Leimkuhler form (Gear, Gupta,
+!> Leimkuhler 1985; Hairer & Wanner II, ch. VII.1; SUNDIALS example idaSlCrank_dns.c), with
+!> unknowns y = (q, v, lambda, mu):
+!>   0 = qdot - v + G^T mu                 (velocity projection, mu = 0 exactly)
+!>   0 = M vdot - k - G^T lambda           (eq. 3.50, evaluated by inverse dynamics, O(n))
+!>   0 = g(q, t)                           (eq. 3.51)
+!>   0 = G(q, t) v + g_t                   (eq. 3.53, with the rheonomic term of a moving clamp)
+!> Its residual and structured iteration matrix, and the IDA callbacks that use them.
+module rotorcable_ggl_residual
+  use, intrinsic :: iso_c_binding, only: c_int, c_long, c_double, c_ptr, c_null_ptr, c_f_pointer
+  use rotorcable_kinds, only: dp
+  use rotorcable_model, only: model_type, eom_residual, constraint_jacobian, mass_matrix
+  use rotorcable_ida_binding, only: N_VGetArrayPointer, SUNDenseMatrix_Data, IDAGetNumSteps, &
+                                    IDAGetNumNonlinSolvConvFails
+  use rotorcable_ggl_linear_solver, only: ggl_block_solver
+  implicit none
+  private
+  public :: ida_user_data, ggl_residual, ggl_residual_dense, ggl_jacobian, ggl_jacobian_dense, physics_jacobian
+
+  !> User data handed to IDA (c_loc), turned back with c_f_pointer in the callbacks.
+  type :: ida_user_data
+    type(model_type), pointer :: model => null()
+    integer :: nq = 0
+    integer :: nc = 0
+    integer :: jac_residuals = 0              !< residual evaluations inside ggl_jacobian
+    type(ggl_block_solver), pointer :: block => null()  !< told cj by ggl_jacobian
+    type(c_ptr) :: mem = c_null_ptr           !< IDA memory (step and failure counters)
+    real(dp), allocatable :: physics(:, :)    !< kept physics columns of the Jacobian
+    logical :: physics_valid = .false.
+    integer(c_long) :: physics_step = 0       !< IDA's step count when they were formed
+    integer(c_long) :: physics_fails = 0      !< IDA's convergence failures then
+    integer :: jacobian_max_age = 1           !< steps before they are formed again
+    integer :: physics_evals = 0              !< how often they were formed
+    character(len=512) :: ida_message = ''
+  end type ida_user_data
+
+contains
+
+  !> GGL residual for IDA.  Returns 0 (success); never stops.
+  integer(c_int) function ggl_residual(t, yy, yp, rr, udata) bind(C)
+    real(c_double), value :: t
+    type(c_ptr), value :: yy, yp, rr, udata
+    type(ida_user_data), pointer :: ud
+    real(c_double), pointer :: y(:), yd(:), r(:)
+    integer :: n
+
+    call c_f_pointer(udata, ud)
+    n = 2*ud%nq + 2*ud%nc
+    call c_f_pointer(N_VGetArrayPointer(yy), y, [n])
+    call c_f_pointer(N_VGetArrayPointer(yp), yd, [n])
+    call c_f_pointer(N_VGetArrayPointer(rr), r, [n])
+    call ggl_residual_dense(ud%model, t, y, yd, r)
+    ! A non-finite residual (a state far off, an overflow) is a recoverable failure: IDA then
+    ! cuts the step (SUNDIALS's examples; returning 0 would feed NaN into the Newton update).
+    ggl_residual = 0
+    if (.not. all(abs(r) <= huge(1.0_dp))) ggl_residual = 1
+  end function ggl_residual
+
+  !> The GGL residual on plain arrays, y = (q, v, lambda, mu).  One kinematic pass serves
+  !> the inverse dynamics, g and G (the frames of q are still current after eom_residual).
+  subroutine ggl_residual_dense(model, t, y, yd, r)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: y(:), yd(:)       !< unknowns and their derivatives
+    real(dp), intent(out) :: r(:)             !< residual
+    integer :: nq, nc, n
+    nq = model%nq; nc = model%nc; n = 2*nq + 2*nc
+    r(1:nq) = yd(1:nq) - y(nq + 1:2*nq)
+    call eom_residual(model, t, y(1:nq), y(nq + 1:2*nq), yd(nq + 1:2*nq), y(2*nq + 1:2*nq + nc), &
+                      r(nq + 1:2*nq))
+    if (nc > 0) call constraint_rows(model, y(2*nq + nc + 1:n), r(1:nq), r(2*nq + 1:2*nq + nc), &
+                                     r(2*nq + nc + 1:n))
+  end subroutine ggl_residual_dense
+
+  !> Iteration matrix J = dF/dy + cj dF/dy' of the GGL residual, assembled from its
+  !> structure instead of IDA's difference quotients over y and y' together:
+  !>   [ cj I + d(G^T mu)/dq      -I             0      G^T ]   q rows
+  !>   [ dF_v/dq          cj M + dF_v/dv       -G^T     0   ]   v rows (eq. 3.50)
+  !>   [ G                        0              0      0   ]   g rows
+  !>   [ d(G v)/dq                G              0      0   ]   G v rows
+  !> M comes from the composite-rigid-body algorithm and G, G^T, -I exactly; only the
+  !> smooth physics columns dF/dq and dF/dv (stiffness, gyroscopic and damper terms) are
+  !> forward differences of the residual at fixed y', which never multiply cj.  IDA's DQ
+  !> perturbs y and y' = cj*inc together, so at the tiny first steps of tight tolerances
+  !> (cj ~ 1e20) its columns are round-off: the corrector then fails at t = 0.
+  subroutine ggl_jacobian_dense(model, t, cj, y, yd, jac)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t, cj             !< time [s], IDA's cj = alpha/h [1/s]
+    real(dp), intent(in) :: y(:), yd(:)       !< unknowns and their derivatives
+    real(dp), intent(out) :: jac(:, :)        !< (n,n) iteration matrix
+    call physics_jacobian(model, t, y, yd, jac)
+    call add_exact_blocks(model, t, cj, y, jac)
+  end subroutine ggl_jacobian_dense
+
+  !> The smooth physics columns dF/dq and dF/dv of the GGL residual (forward differences at
+  !> fixed y'); they do not depend on cj and may be kept over several steps.
+  subroutine physics_jacobian(model, t, y, yd, jac)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: y(:), yd(:)       !< unknowns and their derivatives
+    real(dp), intent(out) :: jac(:, :)        !< (n,n); multiplier columns left zero
+    real(dp) :: r0(size(y)), r1(size(y)), yy(size(y)), inc
+    integer :: nq, j
+    nq = model%nq
+    jac = 0.0_dp
+    yy = y
+    call ggl_residual_dense(model, t, yy, yd, r0)
+    do j = 1, 2*nq
+      ! Coordinates are angles and rates of order one: a relative step with a floor.
+      inc = sqrt(epsilon(1.0_dp))*max(abs(y(j)), 1.0_dp)
+      yy(j) = y(j) + inc
+      call ggl_residual_dense(model, t, yy, yd, r1)
+      yy(j) = y(j)
+      jac(:, j) = (r1 - r0)/inc
+    end do
+  end subroutine physics_jacobian
+
+  !> Add the exact blocks to a physics Jacobian: the y' terms (cj I, cj M by the composite
+  !> rigid bodies at q), the multiplier columns -G^T, G^T and g's rows G.
+  subroutine add_exact_blocks(model, t, cj, y, jac)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: cj                !< IDA's cj = alpha/h [1/s]
+    real(dp), intent(in) :: y(:)              !< unknowns
+    real(dp), intent(inout) :: jac(:, :)      !< (n,n) iteration matrix
+    real(dp) :: g_jac(model%nc, model%nq), m(model%nq, model%nq)
+    integer :: nq, nc, j
+    nq = model%nq; nc = model%nc
+    do j = 1, nq
+      jac(j, j) = jac(j, j) + cj
+    end do
+    call mass_matrix(model, t, y(1:nq), m)
+    jac(nq + 1:2*nq, nq + 1:2*nq) = jac(nq + 1:2*nq, nq + 1:2*nq) + cj*m
+    if (nc > 0) then
+      call constraint_jacobian(model, t, y(1:nq), g_jac)
+      jac(nq + 1:2*nq, 2*nq + 1:2*nq + nc) = -transpose(g_jac)
+      jac(1:nq, 2*nq + nc + 1:) = transpose(g_jac)
+      jac(2*nq + 1:2*nq + nc, 1:nq) = g_jac
+    end if
+  end subroutine add_exact_blocks
+
+  !> IDALsJacFn: fills SUNDIALS's dense matrix (column-major, n x n).  The physics columns
+  !> (finite differences, 2 nq residuals) are kept from one call to the next unless IDA had
+  !> a convergence failure since, or they are older than jacobian_max_age steps; cj I, cj M
+  !> and the constraint blocks are always exact at the current state.  IDA calls this at
+  !> every linear-solver setup, i.e. whenever cj has changed by more than 25 %, which on a
+  !> smooth stretch happens every few steps while the physics barely moves.
+  integer(c_int) function ggl_jacobian(t, cj, yy, yp, rr, jmat, udata, tmp1, tmp2, tmp3) bind(C)
+    real(c_double), value :: t, cj
+    type(c_ptr), value :: yy, yp, rr, jmat, udata, tmp1, tmp2, tmp3
+    type(ida_user_data), pointer :: ud
+    real(c_double), pointer :: y(:), yd(:), a(:, :)
+    integer(c_long) :: steps, fails
+    integer(c_int) :: flag
+    integer :: n
+    call c_f_pointer(udata, ud)
+    n = 2*ud%nq + 2*ud%nc
+    call c_f_pointer(N_VGetArrayPointer(yy), y, [n])
+    call c_f_pointer(N_VGetArrayPointer(yp), yd, [n])
+    call c_f_pointer(SUNDenseMatrix_Data(jmat), a, [n, n])
+    flag = IDAGetNumSteps(ud%mem, steps)
+    flag = IDAGetNumNonlinSolvConvFails(ud%mem, fails)
+    if (.not. ud%physics_valid .or. fails /= ud%physics_fails .or. steps < ud%physics_step .or. &
+        steps - ud%physics_step >= ud%jacobian_max_age) then
+      call physics_jacobian(ud%model, t, y, yd, ud%physics)
+      ud%jac_residuals = ud%jac_residuals + 2*ud%nq + 1
+      ud%physics_evals = ud%physics_evals + 1
+      ud%physics_valid = .true.
+      ud%physics_step = steps
+      ud%physics_fails = fails
+    end if
+    a = ud%physics
+    call add_exact_blocks(ud%model, t, cj, y, a)
+    if (associated(ud%block)) ud%block%cj = cj
+    ggl_jacobian = 0
+  end function ggl_jacobian
+
+  !> Constraint parts of the GGL residual at the current frames and velocities (left by
+  !> eom_residual): G^T mu added to the q rows, g(q, t), and G v + g_t from the tip velocity
+  !> and end rotation rate the recursion already has, so G itself is never formed here.
+  subroutine constraint_rows(model, mu, r_q, r_g, r_gv)
+    type(model_type), intent(inout) :: model
+    real(dp), intent(in) :: mu(:)
+    real(dp), intent(inout) :: r_q(:)
+    real(dp), intent(out) :: r_g(:), r_gv(:)
+    call model%tip%residual(model%chain, model%st, r_g)
+    call model%tip%velocity(model%chain, model%st, model%fs, r_gv)
+    call model%tip%add_jacobian_transpose_times(model%chain, model%st, mu, r_q)
+  end subroutine constraint_rows
+
+end module rotorcable_ggl_residual

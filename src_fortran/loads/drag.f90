@@ -1,0 +1,73 @@
+!> Aerodynamic drag by the cross-flow principle (Hoerner, Fluid-Dynamic Drag, 1965, ch. 3;
+!> the independence principle for yawed cylinders): only the air velocity normal to the body
+!> axis loads it, F_j = 1/2 rho C_d d_j L_j |u_n| u_n, applied at the centre of mass, with
+!>   u = V_inf - v_C,    u_n = u - (u . e) e,    e = body axis,
+!> where V_inf is the free stream (inertial frame, turned into the model frame: in the hub
+!> frame it rotates at -Omega) and v_C the body's absolute velocity, which already contains
+!> the hub rotation's Omega x r; so u is the rotated free stream minus Omega x r minus the
+!> body's own motion (issue 12).  One point per body (its CM): the force converges with n like
+!> any midpoint rule; the moment of the velocity's variation along a turning body is left out.
+!> Parameters: reals = (rho [kg/m^3], V_inf(3) [m/s], C_d(1:n)).
+module rotorcable_loads_drag
+  use rotorcable_kinds, only: dp
+  use rotorcable_errors, only: error_type, fatal_error
+  use rotorcable_chain, only: chain_type
+  use rotorcable_kinematics, only: chain_state
+  use rotorcable_frame, only: frame_state
+  use rotorcable_loads_type, only: load_term, load_slot
+  implicit none
+  private
+  public :: drag_load, new_drag
+
+  !> Cross-flow drag.
+  type, extends(load_term) :: drag_load
+    real(dp) :: density = 1.225_dp            !< air density [kg/m^3]
+    real(dp) :: stream(3) = 0.0_dp            !< free stream, inertial frame [m/s]
+    real(dp), allocatable :: cd_area(:)       !< 1/2 rho C_d d_j L_j per body [kg/m]
+  contains
+    procedure :: add_forces
+  end type drag_load
+
+contains
+
+  !> Build from the flat parameters.
+  subroutine new_drag(slot, chain, ints, reals, error)
+    type(load_slot), intent(inout) :: slot    !< slot to fill
+    type(chain_type), intent(in) :: chain     !< chain description
+    integer, intent(in) :: ints(:)            !< (none)
+    real(dp), intent(in) :: reals(:)          !< rho, V_inf(3), C_d per body
+    type(error_type), intent(inout) :: error  !< status
+    type(drag_load) :: load
+    integer :: n
+    n = chain%n_bodies
+    if (size(reals) /= 4 + n) then
+      call fatal_error(error, 'drag needs the air density, the free stream and C_d per body')
+      return
+    end if
+    load%label = 'drag'
+    load%density = reals(1)
+    load%stream = reals(2:4)
+    ! d_j = 2 R_j: the projected area per length of a cylinder in cross flow.
+    load%cd_area = 0.5_dp*reals(1)*reals(5:4 + n)*2.0_dp*chain%radius*chain%length
+    allocate (slot%term, source=load)
+  end subroutine new_drag
+
+  pure subroutine add_forces(self, chain, st, fs, t, q, v, force, moment, tau)
+    class(drag_load), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    type(frame_state), intent(in) :: fs
+    real(dp), intent(in) :: t, q(:), v(:)
+    real(dp), intent(inout) :: force(:, :), moment(:, :), tau(:)
+    real(dp) :: stream(3), u(3), e(3)
+    integer :: j
+    stream = matmul(self%stream, fs%rotation)        ! R^T V_inf: inertial -> model frame
+    do j = 1, chain%n_bodies
+      e = st%rot(:, 3, j)
+      u = stream - st%vel_cm(:, j)
+      u = u - dot_product(u, e)*e
+      force(:, j) = force(:, j) + self%cd_area(j)*norm2(u)*u
+    end do
+  end subroutine add_forces
+
+end module rotorcable_loads_drag

@@ -1,0 +1,73 @@
+!> Weight m_j g at every centre of mass, eq. 4.46; potential -sum m_j g . C_j.
+!> Parameters: reals = (g_x, g_y, g_z) [m/s^2] in the model frame (the rotor axis is vertical,
+!> so gravity is constant in the hub frame too).
+module rotorcable_loads_gravity
+  use rotorcable_kinds, only: dp
+  use rotorcable_errors, only: error_type, fatal_error
+  use rotorcable_chain, only: chain_type
+  use rotorcable_kinematics, only: chain_state
+  use rotorcable_frame, only: frame_state
+  use rotorcable_loads_type, only: load_term, load_slot
+  implicit none
+  private
+  public :: gravity_load, new_gravity
+
+  !> Uniform gravity field.
+  type, extends(load_term) :: gravity_load
+    real(dp) :: g(3) = 0.0_dp                 !< gravitational acceleration [m/s^2]
+  contains
+    procedure :: add_forces
+    procedure :: potential
+    procedure :: has_potential
+  end type gravity_load
+
+contains
+
+  !> Build from the flat parameters (g_x, g_y, g_z).
+  subroutine new_gravity(slot, chain, ints, reals, error)
+    type(load_slot), intent(inout) :: slot    !< slot to fill
+    type(chain_type), intent(in) :: chain     !< chain description
+    integer, intent(in) :: ints(:)            !< (none)
+    real(dp), intent(in) :: reals(:)          !< g [m/s^2]
+    type(error_type), intent(inout) :: error  !< status
+    type(gravity_load) :: load
+    if (size(reals) /= 3) then
+      call fatal_error(error, 'gravity needs 3 components')
+      return
+    end if
+    load%label = 'gravity'
+    load%g = reals
+    allocate (slot%term, source=load)
+  end subroutine new_gravity
+
+  pure subroutine add_forces(self, chain, st, fs, t, q, v, force, moment, tau)
+    class(gravity_load), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    type(frame_state), intent(in) :: fs
+    real(dp), intent(in) :: t, q(:), v(:)
+    real(dp), intent(inout) :: force(:, :), moment(:, :), tau(:)
+    integer :: j
+    do j = 1, chain%n_bodies
+      force(:, j) = force(:, j) + chain%mass(j)*self%g
+    end do
+  end subroutine add_forces
+
+  pure real(dp) function potential(self, chain, st, q) result(e)
+    class(gravity_load), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    real(dp), intent(in) :: q(:)
+    integer :: j
+    e = 0.0_dp
+    do j = 1, chain%n_bodies
+      e = e - chain%mass(j)*dot_product(self%g, st%cm(:, j))
+    end do
+  end function potential
+
+  pure logical function has_potential(self)
+    class(gravity_load), intent(in) :: self
+    has_potential = .true.
+  end function has_potential
+
+end module rotorcable_loads_gravity

@@ -1,0 +1,81 @@
+!> Linear torsion springs and viscous dampers on every joint coordinate, eq. 4.78-4.86.  A
+!> torque pair along a joint axis does power only on that axis's own rate, so the spring
+!> moments project onto the coordinates diagonally: Q = -c (q - q_rest) - d qdot; potential
+!> sum c (q - q_rest)^2 / 2.  Parameters: reals = (c(1:nq), d(1:nq), q_rest(1:nq)).
+module rotorcable_loads_joint_springs
+  use rotorcable_kinds, only: dp
+  use rotorcable_errors, only: error_type, fatal_error
+  use rotorcable_chain, only: chain_type
+  use rotorcable_kinematics, only: chain_state
+  use rotorcable_frame, only: frame_state
+  use rotorcable_loads_type, only: load_term, load_slot
+  implicit none
+  private
+  public :: joint_springs_load, new_joint_springs
+
+  !> Springs and dampers per coordinate.
+  type, extends(load_term) :: joint_springs_load
+    real(dp), allocatable :: stiffness(:)     !< c [Nm/rad]
+    real(dp), allocatable :: damping(:)       !< d [Nms/rad]
+    real(dp), allocatable :: rest(:)          !< q_rest [rad]
+  contains
+    procedure :: add_forces
+    procedure :: potential
+    procedure :: has_potential
+    procedure :: joint_diagonal
+  end type joint_springs_load
+
+contains
+
+  !> Build from the flat parameters.
+  subroutine new_joint_springs(slot, chain, ints, reals, error)
+    type(load_slot), intent(inout) :: slot    !< slot to fill
+    type(chain_type), intent(in) :: chain     !< chain description
+    integer, intent(in) :: ints(:)            !< (none)
+    real(dp), intent(in) :: reals(:)          !< c, d, q_rest per coordinate
+    type(error_type), intent(inout) :: error  !< status
+    type(joint_springs_load) :: load
+    integer :: nq
+    nq = chain%n_coords
+    if (size(reals) /= 3*nq) then
+      call fatal_error(error, 'joint springs need stiffness, damping and rest angle per coordinate')
+      return
+    end if
+    load%label = 'joint springs'
+    load%stiffness = reals(1:nq)
+    load%damping = reals(nq + 1:2*nq)
+    load%rest = reals(2*nq + 1:3*nq)
+    allocate (slot%term, source=load)
+  end subroutine new_joint_springs
+
+  pure subroutine add_forces(self, chain, st, fs, t, q, v, force, moment, tau)
+    class(joint_springs_load), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    type(frame_state), intent(in) :: fs
+    real(dp), intent(in) :: t, q(:), v(:)
+    real(dp), intent(inout) :: force(:, :), moment(:, :), tau(:)
+    tau = tau - self%stiffness*(q - self%rest) - self%damping*v
+  end subroutine add_forces
+
+  pure real(dp) function potential(self, chain, st, q) result(e)
+    class(joint_springs_load), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    real(dp), intent(in) :: q(:)
+    e = 0.5_dp*sum(self%stiffness*(q - self%rest)**2)
+  end function potential
+
+  pure logical function has_potential(self)
+    class(joint_springs_load), intent(in) :: self
+    has_potential = .true.
+  end function has_potential
+
+  pure subroutine joint_diagonal(self, stiffness, damping)
+    class(joint_springs_load), intent(in) :: self
+    real(dp), intent(inout) :: stiffness(:), damping(:)
+    stiffness = stiffness + self%stiffness
+    damping = damping + self%damping
+  end subroutine joint_diagonal
+
+end module rotorcable_loads_joint_springs

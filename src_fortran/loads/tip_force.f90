@@ -1,0 +1,72 @@
+!> A constant force at the free tip P_{n+1} of an open chain (the cantilever check): applied
+!> to the last body as the force at its CM plus the moment (P_{n+1} - C_n) x F; potential
+!> -F . P_{n+1}.  Parameters: reals = (F_x, F_y, F_z) [N].
+module rotorcable_loads_tip_force
+  use rotorcable_kinds, only: dp
+  use rotorcable_errors, only: error_type, fatal_error
+  use rotorcable_chain, only: chain_type
+  use rotorcable_kinematics, only: chain_state
+  use rotorcable_frame, only: frame_state
+  use rotorcable_rotations, only: cross
+  use rotorcable_loads_type, only: load_term, load_slot
+  implicit none
+  private
+  public :: tip_force_load, new_tip_force
+
+  !> Constant tip force.
+  type, extends(load_term) :: tip_force_load
+    real(dp) :: force(3) = 0.0_dp             !< force [N]
+  contains
+    procedure :: add_forces
+    procedure :: potential
+    procedure :: has_potential
+  end type tip_force_load
+
+contains
+
+  !> Build from the flat parameters.
+  subroutine new_tip_force(slot, chain, ints, reals, error)
+    type(load_slot), intent(inout) :: slot    !< slot to fill
+    type(chain_type), intent(in) :: chain     !< chain description
+    integer, intent(in) :: ints(:)            !< (none)
+    real(dp), intent(in) :: reals(:)          !< force [N]
+    type(error_type), intent(inout) :: error  !< status
+    type(tip_force_load) :: load
+    if (size(reals) /= 3) then
+      call fatal_error(error, 'a tip force needs 3 components')
+      return
+    end if
+    load%label = 'tip force'
+    load%force = reals
+    allocate (slot%term, source=load)
+  end subroutine new_tip_force
+
+  pure subroutine add_forces(self, chain, st, fs, t, q, v, force, moment, tau)
+    class(tip_force_load), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    type(frame_state), intent(in) :: fs
+    real(dp), intent(in) :: t, q(:), v(:)
+    real(dp), intent(inout) :: force(:, :), moment(:, :), tau(:)
+    real(dp) :: arm(3)
+    integer :: n
+    n = chain%n_bodies
+    arm = st%joint_point(:, n + 1) - st%cm(:, n)
+    force(:, n) = force(:, n) + self%force
+    moment(:, n) = moment(:, n) + cross(arm, self%force)
+  end subroutine add_forces
+
+  pure real(dp) function potential(self, chain, st, q) result(e)
+    class(tip_force_load), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    real(dp), intent(in) :: q(:)
+    e = -dot_product(self%force, st%joint_point(:, chain%n_bodies + 1))
+  end function potential
+
+  pure logical function has_potential(self)
+    class(tip_force_load), intent(in) :: self
+    has_potential = .true.
+  end function has_potential
+
+end module rotorcable_loads_tip_force

@@ -1,0 +1,83 @@
+!> The load interface: every applied load of a scene (gravity, a force pulse, a tip force,
+!> joint springs and dampers, aerodynamic drag, ...) is one type extending load_term, in a file
+!> of its own (modelled on tblite's container_type, src/tblite/container/type.f90).
+!>
+!> A load adds forces and moments at the bodies' centres of mass and/or generalized forces on
+!> the coordinates, at a kinematic state and a time; it may have a potential (for the energy
+!> balance), discontinuities in time (where the integrator must stop and restart), and a
+!> constant diagonal joint-space stiffness and damping (what a chain factorisation of the
+!> iteration matrix can use exactly; rotorcable_chain_linear_solver).
+module rotorcable_loads_type
+  use rotorcable_kinds, only: dp
+  use rotorcable_chain, only: chain_type
+  use rotorcable_kinematics, only: chain_state
+  use rotorcable_frame, only: frame_state
+  implicit none
+  private
+  public :: load_term, load_slot
+
+  !> One load of a scene.
+  type, abstract :: load_term
+    character(len=32) :: label = ''           !< name for messages and documentation
+  contains
+    !> Add the load's forces at the state (st: frames and absolute velocities) and time t.
+    procedure(add_forces_interface), deferred :: add_forces
+    !> Potential energy at the frames in st (0 if the load has none, see has_potential).
+    procedure :: potential => no_potential
+    !> Whether the load is conservative with the potential above.
+    procedure :: has_potential => never
+    !> Times at which the load jumps (the integrator stops exactly there and restarts).
+    procedure :: switch_times => no_switch_times
+    !> Constant diagonal joint-space stiffness and damping contributed by the load.
+    procedure :: joint_diagonal => no_joint_diagonal
+  end type load_term
+
+  !> Holder of one polymorphic load (an array of these is the model's load list).
+  type :: load_slot
+    class(load_term), allocatable :: term
+  end type load_slot
+
+  abstract interface
+    !> Add forces (3,n) and moments (3,n) at the centres of mass and generalized forces tau (nq).
+    pure subroutine add_forces_interface(self, chain, st, fs, t, q, v, force, moment, tau)
+      import :: load_term, chain_type, chain_state, frame_state, dp
+      class(load_term), intent(in) :: self    !< the load
+      type(chain_type), intent(in) :: chain   !< chain description
+      type(chain_state), intent(in) :: st     !< frames, absolute velocities (model-frame coordinates)
+      type(frame_state), intent(in) :: fs     !< the model frame's motion at t
+      real(dp), intent(in) :: t               !< time [s]
+      real(dp), intent(in) :: q(:), v(:)      !< coordinates [rad] and rates [rad/s]
+      real(dp), intent(inout) :: force(:, :)  !< (3,n) force at each CM [N]
+      real(dp), intent(inout) :: moment(:, :) !< (3,n) moment on each body [Nm]
+      real(dp), intent(inout) :: tau(:)       !< (nq) generalized forces [Nm]
+    end subroutine add_forces_interface
+  end interface
+
+contains
+
+  pure real(dp) function no_potential(self, chain, st, q) result(e)
+    class(load_term), intent(in) :: self      !< the load
+    type(chain_type), intent(in) :: chain     !< chain description
+    type(chain_state), intent(in) :: st       !< frames
+    real(dp), intent(in) :: q(:)              !< coordinates [rad]
+    e = 0.0_dp
+  end function no_potential
+
+  pure logical function never(self)
+    class(load_term), intent(in) :: self      !< the load
+    never = .false.
+  end function never
+
+  pure subroutine no_switch_times(self, times)
+    class(load_term), intent(in) :: self      !< the load
+    real(dp), allocatable, intent(out) :: times(:)  !< switching times [s]
+    allocate (times(0))
+  end subroutine no_switch_times
+
+  pure subroutine no_joint_diagonal(self, stiffness, damping)
+    class(load_term), intent(in) :: self      !< the load
+    real(dp), intent(inout) :: stiffness(:)   !< (nq) diagonal stiffness to add to [Nm/rad]
+    real(dp), intent(inout) :: damping(:)     !< (nq) diagonal damping to add to [Nms/rad]
+  end subroutine no_joint_diagonal
+
+end module rotorcable_loads_type

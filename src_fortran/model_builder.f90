@@ -1,0 +1,175 @@
+!> Building a model from its description in flat arrays (what Python's schema-validated deck
+!> becomes): the chain, then loads and supports through their factories, the rotor, and the
+!> checks that need the assembled geometry (reach of clamp B, enough coordinates).
+module rotorcable_model_builder
+  use rotorcable_kinds, only: dp
+  use rotorcable_errors, only: error_type, fatal_error
+  use rotorcable_chain, only: chain_allocate
+  use rotorcable_joint, only: angles_from_thesis, MAX_JOINT_DOF
+  use rotorcable_model, only: model_type, model_init, positions_at
+  use rotorcable_loads_type, only: load_slot
+  use rotorcable_loads_factory, only: new_load
+  use rotorcable_supports_clamp, only: clamp_support, new_clamp
+  use rotorcable_motion_rigid_motion, only: rigid_motion
+  use rotorcable_motion_builder, only: motion_from_flat
+  use rotorcable_motion_rotor, only: set_constant_speed, set_runup_speed, set_table_speed, ROTOR_CONSTANT, ROTOR_RUNUP, &
+                                     ROTOR_TABLE
+  implicit none
+  private
+  public :: build_chain, build_load, build_base, build_clamp, build_rotor, build_finish, thesis_to_coordinates
+
+contains
+
+  !> The chain: per-body cylinders, joint parametrisation, locked joints and their angles.
+  subroutine build_chain(model, lengths, radii, masses, joint_kind, locked, locked_angles, error)
+    type(model_type), intent(inout) :: model  !< model (fresh)
+    real(dp), intent(in) :: lengths(:), radii(:), masses(:)  !< per body [m, m, kg]
+    integer, intent(in) :: joint_kind         !< parametrisation of the free joints
+    logical, intent(in) :: locked(:)          !< locked joints
+    real(dp), intent(in) :: locked_angles(:, :)  !< (2,n) thesis gamma, beta of every joint [rad]
+    type(error_type), intent(inout) :: error  !< status
+    integer :: n
+    n = size(lengths)
+    if (n < 1 .or. size(radii) /= n .or. size(masses) /= n .or. size(locked) /= n) then
+      call fatal_error(error, 'chain description: inconsistent sizes')
+      return
+    end if
+    if (.not. (all(lengths > 0.0_dp) .and. all(radii > 0.0_dp) .and. all(masses > 0.0_dp))) then
+      call fatal_error(error, 'every body needs a positive length, radius and mass', key='chain.n_bodies')
+      return
+    end if
+    call chain_allocate(model%chain, n, lengths, radii, masses, locked, joint_kind)
+    model%chain%locked_angles = locked_angles
+    allocate (model%loads(0))
+  end subroutine build_chain
+
+  !> Append a load built by the load factory.
+  subroutine build_load(model, kind, ints, reals, error)
+    type(model_type), intent(inout) :: model  !< model with its chain
+    character(len=*), intent(in) :: kind      !< load kind
+    integer, intent(in) :: ints(:)            !< integer parameters
+    real(dp), intent(in) :: reals(:)          !< real parameters
+    type(error_type), intent(inout) :: error  !< status
+    type(load_slot), allocatable :: grown(:)
+    integer :: n
+    n = size(model%loads)
+    allocate (grown(n + 1))
+    call new_load(kind, grown(n + 1), model%chain, ints, reals, error)
+    if (error%code /= 0) return
+    grown(1:n) = model%loads
+    call move_alloc(grown, model%loads)
+  end subroutine build_load
+
+  !> Support A: its reference pose and an optional prescribed motion.
+  subroutine build_base(model, position, rotation, motion_ints, motion_reals, error)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: position(3), rotation(3, 3)  !< reference pose of P_1 and R_0
+    integer, intent(in) :: motion_ints(:)     !< motion description (rotorcable_motion_builder)
+    real(dp), intent(in) :: motion_reals(:)
+    type(error_type), intent(inout) :: error  !< status
+    model%base%position = position
+    model%base%rotation = rotation
+    call motion_from_flat(motion_ints, motion_reals, model%base%motion, error)
+    model%base%moving = size(model%base%motion%hinges) > 0
+  end subroutine build_base
+
+  !> Clamp B: its reference pose and an optional prescribed motion.
+  subroutine build_clamp(model, position, rotation, motion_ints, motion_reals, error)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: position(3), rotation(3, 3)  !< reference pose of p_B and R_B
+    integer, intent(in) :: motion_ints(:)     !< motion description
+    real(dp), intent(in) :: motion_reals(:)
+    type(error_type), intent(inout) :: error  !< status
+    type(rigid_motion) :: motion
+    type(clamp_support) :: clamp
+    call motion_from_flat(motion_ints, motion_reals, motion, error)
+    if (error%code /= 0) return
+    call new_clamp(clamp, position, rotation, motion)
+    allocate (model%tip, source=clamp)
+  end subroutine build_clamp
+
+  !> The rotor (speed profile, centre) and the frame of the equations.
+  subroutine build_rotor(model, kind, centre, params, hub, body_couples, error)
+    type(model_type), intent(inout) :: model  !< model
+    integer, intent(in) :: kind               !< ROTOR_CONSTANT, ROTOR_RUNUP or ROTOR_TABLE
+    real(dp), intent(in) :: centre(3)         !< rotor centre [m]
+    real(dp), intent(in) :: params(:)         !< constant: (Omega); run-up: (Omega_0, Omega_1, t_0, T);
+                                              !< table: (t_1..t_m, Omega_1..Omega_m)
+    logical, intent(in) :: hub                !< equations in the hub frame
+    logical, intent(in) :: body_couples       !< rotational inertia in the frame terms
+    type(error_type), intent(inout) :: error  !< status
+    integer :: m
+    select case (kind)
+    case (ROTOR_CONSTANT)
+      call set_constant_speed(model%rotor, params(1), centre)
+    case (ROTOR_RUNUP)
+      call set_runup_speed(model%rotor, params(1), params(2), params(3), params(4), centre, error)
+    case (ROTOR_TABLE)
+      m = size(params)/2
+      call set_table_speed(model%rotor, params(1:m), params(m + 1:2*m), centre, error)
+    case default
+      call fatal_error(error, 'unknown rotor speed profile')
+    end select
+    model%frame%hub = hub
+    model%frame%body_couples = body_couples
+    model%frame%centre = centre
+  end subroutine build_rotor
+
+  !> Size the workspace and check what needs the assembled model.
+  subroutine build_finish(model, error)
+    type(model_type), intent(inout) :: model  !< model
+    type(error_type), intent(inout) :: error  !< status
+    real(dp) :: start(3), span, reach, zero(model%chain%n_coords)
+    integer :: n
+    character(len=160) :: buf
+    call model_init(model)
+    if (model%nc == 0) return
+    n = model%chain%n_bodies
+    if (model%nc > model%nq) then
+      write (buf, '(a, i0, a, i0, a)') 'too few free coordinates (', model%nq, ') for the ', model%nc, &
+        ' clamp constraints; use more bodies'
+      call fatal_error(error, trim(buf), key='chain.n_bodies')
+      return
+    end if
+    ! Reach: the free part runs from the end of a clamped first body (or from A) to the start
+    ! of the clamped last body; it cannot span more than its length.
+    zero = 0.0_dp
+    call positions_at(model, 0.0_dp, zero)
+    select type (tip => model%tip)
+    type is (clamp_support)
+      start = model%st%joint_point(:, 1)
+      reach = sum(model%chain%length(1:n - 1))
+      if (model%chain%locked(1)) then
+        start = model%st%joint_point(:, 2)
+        reach = reach - model%chain%length(1)
+      end if
+      span = norm2(tip%position - model%chain%length(n)*tip%rotation(:, 3) - start)
+      if (n < 2 .or. span > reach*(1.0_dp + 1.0e-12_dp)) then
+        write (buf, '(a, g0.6, a, g0.6, a)') 'the end clamp is out of reach: the free part of the chain is ', &
+          reach, ' m long but must span ', span, ' m'
+        call fatal_error(error, trim(buf), key='clamp_b.position')
+      end if
+    end select
+  end subroutine build_finish
+
+  !> Coordinates and rates of a shape given in the thesis's (gamma, beta) per body [rad];
+  !> rates are the thesis angles' rates (thesis joint only; others start at rest).
+  subroutine thesis_to_coordinates(model, gamma, beta, gamma_rate, beta_rate, q, v)
+    type(model_type), intent(in) :: model     !< model
+    real(dp), intent(in) :: gamma(:), beta(:) !< thesis angles per body [rad]
+    real(dp), intent(in) :: gamma_rate(:), beta_rate(:)  !< their rates [rad/s]
+    real(dp), intent(out) :: q(:), v(:)       !< coordinates, rates
+    real(dp) :: joint_q(MAX_JOINT_DOF)
+    integer :: j, i0, nd
+    q = 0.0_dp; v = 0.0_dp
+    do j = 1, model%chain%n_bodies
+      i0 = model%chain%first_coord(j)
+      if (i0 == 0) cycle
+      nd = model%chain%n_joint_coords(j)
+      joint_q = angles_from_thesis(model%chain%joint_kind(j), [gamma(j), beta(j)])
+      q(i0:i0 + nd - 1) = joint_q(1:nd)
+      v(i0:i0 + 1) = [gamma_rate(j), beta_rate(j)]
+    end do
+  end subroutine thesis_to_coordinates
+
+end module rotorcable_model_builder

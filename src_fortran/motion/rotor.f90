@@ -1,0 +1,117 @@
+!> The rotor: its speed Omega(t) about the deck's z axis through the rotor centre, and the
+!> rotor angle psi(t) = integral of Omega dt (psi(0) = 0).
+!>
+!> Speed profiles:
+!>  * constant Omega;
+!>  * run-up from Omega_0 to Omega_1 over [t_0, t_0 + T] with the smooth step
+!>    s(tau) = tau - sin(2 pi tau)/(2 pi): Omega-dot = (Omega_1 - Omega_0)/T (1 - cos 2 pi tau)
+!>    starts and ends at zero, so the Euler force has no jump;
+!>  * a table Omega(t_k), natural cubic spline (GSL), held after its last time.
+module rotorcable_motion_rotor
+  use rotorcable_kinds, only: dp
+  use rotorcable_errors, only: error_type, fatal_error
+  use rotorcable_motion_table_spline, only: table_spline, spline_init, spline_eval, spline_integral, spline_free
+  implicit none
+  private
+  public :: rotor_type, rotor_state, rotor_at, set_constant_speed, set_runup_speed, set_table_speed, rotor_free, &
+            ROTOR_STILL, ROTOR_CONSTANT, ROTOR_RUNUP, ROTOR_TABLE
+
+  integer, parameter :: ROTOR_STILL = 0, ROTOR_CONSTANT = 1, ROTOR_RUNUP = 2, ROTOR_TABLE = 3
+  real(dp), parameter :: TWO_PI = 2.0_dp*acos(-1.0_dp)
+
+  !> Rotor speed profile and centre.
+  type :: rotor_type
+    integer :: kind = ROTOR_STILL
+    real(dp) :: centre(3) = 0.0_dp            !< rotor centre in the deck frame [m] (axis = deck z)
+    real(dp) :: omega_0 = 0.0_dp              !< constant speed, or speed before the run-up [rad/s]
+    real(dp) :: omega_1 = 0.0_dp              !< speed after the run-up [rad/s]
+    real(dp) :: t_start = 0.0_dp              !< run-up start [s]
+    real(dp) :: duration = 0.0_dp             !< run-up duration [s]
+    type(table_spline) :: table               !< Omega(t) table
+  end type rotor_type
+
+  !> Rotor angle, speed and acceleration at one time.
+  type :: rotor_state
+    real(dp) :: psi = 0.0_dp                  !< rotor angle [rad]
+    real(dp) :: omega = 0.0_dp                !< speed [rad/s]
+    real(dp) :: omega_dot = 0.0_dp            !< angular acceleration [rad/s^2]
+  end type rotor_state
+
+contains
+
+  !> A rotor turning at constant speed.
+  subroutine set_constant_speed(r, omega, centre)
+    type(rotor_type), intent(inout) :: r      !< rotor
+    real(dp), intent(in) :: omega             !< speed [rad/s]
+    real(dp), intent(in) :: centre(3)         !< rotor centre [m]
+    r%kind = merge(ROTOR_CONSTANT, ROTOR_STILL, omega /= 0.0_dp)
+    r%omega_0 = omega
+    r%centre = centre
+  end subroutine set_constant_speed
+
+  !> A run-up from omega_0 to omega_1 between t_start and t_start + duration.
+  subroutine set_runup_speed(r, omega_0, omega_1, t_start, duration, centre, error)
+    type(rotor_type), intent(inout) :: r      !< rotor
+    real(dp), intent(in) :: omega_0, omega_1  !< speeds before and after [rad/s]
+    real(dp), intent(in) :: t_start, duration !< start [s] and duration [s] of the run-up
+    real(dp), intent(in) :: centre(3)         !< rotor centre [m]
+    type(error_type), intent(inout) :: error  !< status
+    if (.not. (duration > 0.0_dp)) then
+      call fatal_error(error, 'the run-up duration must be positive')
+      return
+    end if
+    r%kind = ROTOR_RUNUP
+    r%omega_0 = omega_0; r%omega_1 = omega_1
+    r%t_start = t_start; r%duration = duration
+    r%centre = centre
+  end subroutine set_runup_speed
+
+  !> A tabulated speed Omega(t_k).
+  subroutine set_table_speed(r, t, omega, centre, error)
+    type(rotor_type), intent(inout) :: r      !< rotor
+    real(dp), intent(in) :: t(:), omega(:)    !< times [s] and speeds [rad/s]
+    real(dp), intent(in) :: centre(3)         !< rotor centre [m]
+    type(error_type), intent(inout) :: error  !< status
+    r%kind = ROTOR_TABLE
+    r%centre = centre
+    call spline_init(r%table, t, omega, error)
+    if (error%code == 0 .and. t(1) > 0.0_dp) &
+      call fatal_error(error, 'the speed table must start at t = 0 or earlier')
+  end subroutine set_table_speed
+
+  !> Rotor angle, speed and acceleration at time t.
+  function rotor_at(r, t) result(s)
+    type(rotor_type), intent(in) :: r         !< rotor
+    real(dp), intent(in) :: t                 !< time [s]
+    type(rotor_state) :: s
+    real(dp) :: tau, dw, f, df, ddf
+    select case (r%kind)
+    case (ROTOR_CONSTANT)
+      s%psi = r%omega_0*t
+      s%omega = r%omega_0
+    case (ROTOR_RUNUP)
+      dw = r%omega_1 - r%omega_0
+      tau = min(1.0_dp, max(0.0_dp, (t - r%t_start)/r%duration))
+      s%omega = r%omega_0 + dw*(tau - sin(TWO_PI*tau)/TWO_PI)
+      s%omega_dot = 0.0_dp
+      if (tau > 0.0_dp .and. tau < 1.0_dp) s%omega_dot = dw/r%duration*(1.0_dp - cos(TWO_PI*tau))
+      ! psi = Omega_0 t + dw T S(tau) (+ dw (t - t_0 - T) after), S = tau^2/2 + (cos 2 pi tau - 1)/(2 pi)^2
+      s%psi = r%omega_0*t + dw*r%duration*(0.5_dp*tau**2 + (cos(TWO_PI*tau) - 1.0_dp)/TWO_PI**2)
+      if (t > r%t_start + r%duration) s%psi = s%psi + dw*(t - r%t_start - r%duration)
+    case (ROTOR_TABLE)
+      call spline_eval(r%table, t, f, df, ddf)
+      s%omega = f
+      s%omega_dot = df
+      s%psi = spline_integral(r%table, t) - spline_integral(r%table, 0.0_dp)
+    case default
+      s = rotor_state()
+    end select
+  end function rotor_at
+
+  !> Release the table spline.
+  subroutine rotor_free(r)
+    type(rotor_type), intent(inout) :: r      !< rotor
+    call spline_free(r%table)
+  end subroutine rotor_free
+
+end module rotorcable_motion_rotor

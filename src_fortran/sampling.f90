@@ -1,0 +1,90 @@
+!> What an output sample reports at a state (q, v, t): support reactions, energies, the
+!> constraint violation, and the loads the cable carries at every joint.
+!>
+!> Reactions come from the multipliers of eq. 3.55 (= eq. 3.56/3.57 without explicit inverses)
+!> at the integrated (q, v), passed through the Newton-Euler backward pass for the reaction at
+!> A and the joint wrenches: the thesis's route (eq. 3.57), free of the lower accuracy of the
+!> index-2 multipliers of a BDF method.  Two kinematic passes per sample.
+module rotorcable_sampling
+  use rotorcable_kinds, only: dp
+  use rotorcable_model, only: model_type, solve_accelerations, eom_residual, kinetic_energy, stored_energy
+  use rotorcable_kinematics, only: joint_angles
+  use rotorcable_joint, only: thesis_angles
+  implicit none
+  private
+  public :: sample_state, joint_loads, shape_of
+
+contains
+
+  !> Reactions, energies and max |g| of the position rows at (q, v, t).  On return model%st
+  !> holds the frames, motion and joint wrenches of this state.
+  subroutine sample_state(model, t, q, v, wrenches, kinetic, potential, g_max, info, multipliers)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: q(:), v(:)        !< coordinates and rates
+    real(dp), intent(out) :: wrenches(12)     !< F_A, M_A, F_B, M_B (support on chain)
+    real(dp), intent(out) :: kinetic          !< kinetic energy relative to the model frame [J]
+    real(dp), intent(out) :: potential        !< potential energy [J]
+    real(dp), intent(out) :: g_max            !< max |g| of the position rows [m]
+    integer, intent(out) :: info              !< LAPACK status of eq. 3.55
+    real(dp), intent(out), optional :: multipliers(:)  !< lambda of eq. 3.55 (size nc)
+    real(dp) :: vdot(model%nq), lambda(max(model%nc, 1)), res(model%nq), g(max(model%nc, 1))
+    lambda = 0.0_dp
+    call solve_accelerations(model, t, q, v, vdot, lambda(1:model%nc), info)
+    call eom_residual(model, t, q, v, vdot, lambda, res, wrenches, frames_current=.true.)
+    if (present(multipliers)) multipliers = lambda(1:model%nc)
+    kinetic = kinetic_energy(model)
+    potential = stored_energy(model, q)
+    g_max = 0.0_dp
+    if (model%nc > 0) then
+      call model%tip%residual(model%chain, model%st, g(1:model%nc))
+      g_max = maxval(abs(g(1:min(3, model%nc))))
+    end if
+  end subroutine sample_state
+
+  !> The wrench every joint transmits (parent on child, at the joint point, from model%st after
+  !> sample_state), resolved along the child's axis e, and the joint's bending angle.
+  !> axial = -f.e (positive in tension: a parent pulls its child back along -e), shear =
+  !> |f - (f.e) e|, torsion = n.e, bending = |n - (n.e) e|; bend angle = the angle between the
+  !> parent's axis (the base frame's z for joint 1) and the child's, 0 at a locked joint.
+  subroutine joint_loads(model, axial, shear, bending, torsion, bend_angle)
+    type(model_type), intent(in) :: model     !< model after sample_state
+    real(dp), intent(out) :: axial(:)         !< (n) axial force [N]
+    real(dp), intent(out) :: shear(:)         !< (n) shear force [N]
+    real(dp), intent(out) :: bending(:)       !< (n) bending moment [Nm]
+    real(dp), intent(out) :: torsion(:)       !< (n) torsional moment [Nm]
+    real(dp), intent(out) :: bend_angle(:)    !< (n) bending angle [rad]
+    real(dp) :: e(3), e_parent(3), f(3), m(3)
+    integer :: j
+    e_parent = model%base_rot(:, 3)
+    do j = 1, model%chain%n_bodies
+      e = model%st%rot(:, 3, j)
+      f = model%st%joint_force(:, j)
+      m = model%st%joint_moment(:, j)
+      axial(j) = -dot_product(f, e)
+      shear(j) = norm2(f - dot_product(f, e)*e)
+      torsion(j) = dot_product(m, e)
+      bending(j) = norm2(m - dot_product(m, e)*e)
+      bend_angle(j) = 0.0_dp
+      if (.not. model%chain%locked(j)) bend_angle(j) = acos(max(-1.0_dp, min(1.0_dp, dot_product(e_parent, e))))
+      e_parent = e
+    end do
+  end subroutine joint_loads
+
+  !> The thesis's (gamma, beta) of every body [rad] for q, and the CMs and joint points from
+  !> model%st (frames of q must be current).
+  subroutine shape_of(model, q, angles, cm, joints)
+    type(model_type), intent(in) :: model     !< model with the frames of q
+    real(dp), intent(in) :: q(:)              !< coordinates [rad]
+    real(dp), intent(out) :: angles(:, :)     !< (2,n) gamma, beta [rad]
+    real(dp), intent(out) :: cm(:, :)         !< (3,n) centres of mass [m]
+    real(dp), intent(out) :: joints(:, :)     !< (3,n+1) joint points [m]
+    integer :: j
+    do j = 1, model%chain%n_bodies
+      angles(:, j) = thesis_angles(model%chain%joint_kind(j), joint_angles(model%chain, q, j))
+    end do
+    cm = model%st%cm
+    joints = model%st%joint_point
+  end subroutine shape_of
+
+end module rotorcable_sampling

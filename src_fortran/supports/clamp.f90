@@ -1,0 +1,271 @@
+!> Clamp B: six constraint rows holding the tip P_{n+1} at p_B(t) and the last body's full
+!> orientation, twist included, at R_B(t) (eq. 4.92-4.109, extended to orientation and to a
+!> moving, rheonomic clamp).  The clamp pose is a reference pose (p_B0, R_B0) moved by a
+!> prescribed rigid motion (the blade's flap, lag and pitch; rotorcable_motion_rigid_motion),
+!> or fixed.
+!>
+!> Rows: g_pos = P_{n+1} - p_B; with E = R_n R_B^T, g_rot = vee(E - E^T)/2, which vanishes
+!> exactly when E = I near the solution.  With Edot = [w_n] E - E [w_B] (w relative to the
+!> model frame):  g_rot-dot = T w_n - T^T w_B,  T = (tr(E) I - E)/2  (T = I on g = 0), so
+!>   G = [a_k x (P_{n+1} - p_k); T a_k] per coordinate k,
+!>   G v + g_t = (v_tip - v_B;  T w_n - T^T w_B),
+!>   d^2g/dt^2 at qdd = 0 = (a_tip - a_B;  Tdot w_n + T alpha_n - Tdot^T w_B - T^T alpha_B),
+!> with tip velocity/acceleration and w_n, alpha_n relative to the model frame
+!> (rotorcable_frame) and Tdot = (tr(Edot) I - Edot)/2.  The multipliers are the clamp wrench on
+!> the chain: F_B = lambda_pos, M_B = T^T lambda_rot (eq. 3.50: G^T lambda is the generalized
+!> force of that wrench).
+module rotorcable_supports_clamp
+  use rotorcable_kinds, only: dp
+  use rotorcable_errors, only: error_type, fatal_error
+  use rotorcable_chain, only: chain_type
+  use rotorcable_kinematics, only: chain_state
+  use rotorcable_frame, only: frame_state, relative_velocity, relative_acceleration
+  use rotorcable_rotations, only: cross, skew, vee, identity3, rotation_log, rotation_exp
+  use rotorcable_motion_rotor, only: rotor_state
+  use rotorcable_motion_rigid_motion, only: rigid_motion, motion_state, motion_at, point_motion, motion_free
+  use rotorcable_supports_type, only: support_type
+  implicit none
+  private
+  public :: clamp_support, new_clamp
+
+  !> Clamp B.
+  type, extends(support_type) :: clamp_support
+    real(dp) :: position_ref(3) = 0.0_dp      !< p_B in the reference configuration [m]
+    real(dp) :: rotation_ref(3, 3) = 0.0_dp   !< R_B in the reference configuration
+    logical :: moving = .false.               !< prescribed motion present
+    type(rigid_motion) :: motion              !< prescribed motion
+    ! The pose and motion at the time of the last update (relative to the model frame):
+    real(dp) :: position(3) = 0.0_dp          !< p_B [m]
+    real(dp) :: rotation(3, 3) = 0.0_dp       !< R_B
+    real(dp) :: lin_velocity(3) = 0.0_dp      !< dp_B/dt [m/s]
+    real(dp) :: lin_acceleration(3) = 0.0_dp  !< d^2p_B/dt^2 [m/s^2]
+    real(dp) :: omega(3) = 0.0_dp             !< w_B [rad/s]
+    real(dp) :: alpha(3) = 0.0_dp             !< dw_B/dt [rad/s^2]
+    real(dp) :: true_position(3) = 0.0_dp     !< p_B at the last update (position may be blended)
+    real(dp) :: true_rotation(3, 3) = 0.0_dp  !< R_B at the last update
+  contains
+    procedure :: rows
+    procedure :: update
+    procedure :: residual
+    procedure :: jacobian
+    procedure :: add_jacobian_transpose_times
+    procedure :: velocity => velocity_rows
+    procedure :: bias
+    procedure :: wrench
+    procedure :: closure
+    procedure :: closure_rows
+    procedure :: blend_target
+    procedure :: free
+  end type clamp_support
+
+contains
+
+  !> A clamp at the reference pose (position, rotation), moved by `motion` if it has hinges.
+  subroutine new_clamp(clamp, position, rotation, motion)
+    type(clamp_support), intent(out) :: clamp !< clamp to build
+    real(dp), intent(in) :: position(3)       !< p_B0 [m]
+    real(dp), intent(in) :: rotation(3, 3)    !< R_B0
+    type(rigid_motion), intent(in), optional :: motion  !< prescribed motion
+    clamp%position_ref = position
+    clamp%rotation_ref = rotation
+    clamp%position = position
+    clamp%rotation = rotation
+    clamp%true_position = position
+    clamp%true_rotation = rotation
+    if (present(motion)) then
+      if (allocated(motion%hinges)) then
+        if (size(motion%hinges) > 0) then
+          clamp%moving = .true.
+          clamp%motion = motion
+        end if
+      end if
+    end if
+  end subroutine new_clamp
+
+  pure integer function rows(self)
+    class(clamp_support), intent(in) :: self
+    rows = 6
+  end function rows
+
+  subroutine update(self, t, rs)
+    class(clamp_support), intent(inout) :: self
+    real(dp), intent(in) :: t
+    type(rotor_state), intent(in) :: rs
+    type(motion_state) :: ms
+    if (self%moving) then
+      ms = motion_at(self%motion, t, rs)
+      call point_motion(ms, self%position_ref, self%position, self%lin_velocity, self%lin_acceleration)
+      self%rotation = matmul(ms%rot, self%rotation_ref)
+      self%omega = ms%omega
+      self%alpha = ms%omega_dot
+    else
+      self%position = self%position_ref
+      self%rotation = self%rotation_ref
+    end if
+    self%true_position = self%position
+    self%true_rotation = self%rotation
+  end subroutine update
+
+  pure function orientation_error(self, st) result(e)
+    class(clamp_support), intent(in) :: self
+    type(chain_state), intent(in) :: st
+    real(dp) :: e(3, 3)
+    e = matmul(st%rot(:, :, size(st%rot, 3)), transpose(self%rotation))
+  end function orientation_error
+
+  pure function rate_map(e) result(t)
+    real(dp), intent(in) :: e(3, 3)
+    real(dp) :: t(3, 3)
+    t = 0.5_dp*((e(1, 1) + e(2, 2) + e(3, 3))*identity3() - e)
+  end function rate_map
+
+  pure subroutine residual(self, chain, st, g)
+    class(clamp_support), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    real(dp), intent(out) :: g(:)
+    real(dp) :: e(3, 3)
+    g(1:3) = st%joint_point(:, chain%n_bodies + 1) - self%position
+    e = orientation_error(self, st)
+    g(4:6) = 0.5_dp*vee(e - transpose(e))
+  end subroutine residual
+
+  pure subroutine jacobian(self, chain, st, g_jac)
+    class(clamp_support), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    real(dp), intent(out) :: g_jac(:, :)
+    real(dp) :: t(3, 3), tip(3), arm(3)
+    integer :: j, kk, k
+    t = rate_map(orientation_error(self, st))
+    tip = st%joint_point(:, chain%n_bodies + 1)
+    do j = 1, chain%n_bodies
+      arm = tip - st%joint_point(:, j)        ! a local: no heap temporary for cross
+      do kk = 1, chain%n_joint_coords(j)
+        k = chain%first_coord(j) + kk - 1
+        g_jac(1:3, k) = cross(st%axes(:, kk, j), arm)
+        g_jac(4:6, k) = matmul(t, st%axes(:, kk, j))
+      end do
+    end do
+  end subroutine jacobian
+
+  !> (G^T mu)_k = a_k . ((tip - P_j) x mu_t + T^T mu_r): one 3-vector per body instead of six
+  !> numbers per coordinate.
+  pure subroutine add_jacobian_transpose_times(self, chain, st, mu, r)
+    class(clamp_support), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    real(dp), intent(in) :: mu(:)
+    real(dp), intent(inout) :: r(:)
+    real(dp) :: t_mu(3), tip(3), arm(3), w(3)
+    integer :: j, kk
+    t_mu = matmul(mu(4:6), rate_map(orientation_error(self, st)))
+    tip = st%joint_point(:, chain%n_bodies + 1)
+    do j = 1, chain%n_bodies
+      if (chain%n_joint_coords(j) == 0) cycle
+      arm = tip - st%joint_point(:, j)
+      w = cross(arm, mu(1:3)) + t_mu
+      do kk = 1, chain%n_joint_coords(j)
+        r(chain%first_coord(j) + kk - 1) = r(chain%first_coord(j) + kk - 1) + dot_product(st%axes(:, kk, j), w)
+      end do
+    end do
+  end subroutine add_jacobian_transpose_times
+
+  pure subroutine velocity_rows(self, chain, st, fs, out)
+    class(clamp_support), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    type(frame_state), intent(in) :: fs
+    real(dp), intent(out) :: out(:)
+    real(dp) :: tip(3), w_n(3), t(3, 3)
+    integer :: n
+    n = chain%n_bodies
+    tip = st%joint_point(:, n + 1)
+    t = rate_map(orientation_error(self, st))
+    w_n = st%omega(:, n) - fs%omega
+    out(1:3) = relative_velocity(fs, tip, st%vel_joint(:, n + 1)) - self%lin_velocity
+    out(4:6) = matmul(t, w_n) - matmul(self%omega, t)
+  end subroutine velocity_rows
+
+  pure subroutine bias(self, chain, st, fs, out)
+    class(clamp_support), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    type(frame_state), intent(in) :: fs
+    real(dp), intent(out) :: out(:)
+    real(dp) :: tip(3), v_rel(3), w_n(3), al_n(3), e(3, 3), edot(3, 3), t(3, 3), tdot(3, 3)
+    integer :: n
+    n = chain%n_bodies
+    tip = st%joint_point(:, n + 1)
+    v_rel = relative_velocity(fs, tip, st%vel_joint(:, n + 1))
+    out(1:3) = relative_acceleration(fs, tip, v_rel, st%acc_joint(:, n + 1)) - self%lin_acceleration
+    w_n = st%omega(:, n) - fs%omega
+    al_n = st%alpha(:, n) - fs%omega_dot - cross(fs%omega, w_n)
+    e = orientation_error(self, st)
+    edot = matmul(skew(w_n), e) - matmul(e, skew(self%omega))
+    t = rate_map(e)
+    tdot = rate_map(edot)
+    out(4:6) = matmul(tdot, w_n) + matmul(t, al_n) - matmul(self%omega, tdot) - matmul(self%alpha, t)
+  end subroutine bias
+
+  pure subroutine wrench(self, chain, st, lambda, force, moment)
+    class(clamp_support), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    real(dp), intent(in) :: lambda(:)
+    real(dp), intent(out) :: force(3), moment(3)
+    force = lambda(1:3)
+    moment = matmul(lambda(4:6), rate_map(orientation_error(self, st)))   ! T^T lambda_rot
+  end subroutine wrench
+
+  !> (tip - p_B, E - I), 3 + 9 rows, and its Jacobian (dE/dq_k = [a_k] E).  g_rot also vanishes
+  !> at a half-turn error (E = 2uu^T - I, where T has rank 1), so a Gauss-Newton closure on g
+  !> alone can stop at a flipped end; E - I vanishes only at E = I.
+  pure subroutine closure(self, chain, st, r, r_jac)
+    class(clamp_support), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    real(dp), intent(out) :: r(:)
+    real(dp), intent(out) :: r_jac(:, :)
+    real(dp) :: e(3, 3), de(3, 3), tip(3), arm(3)
+    integer :: j, kk, k
+    e = orientation_error(self, st)
+    tip = st%joint_point(:, chain%n_bodies + 1)
+    r(1:3) = tip - self%position
+    r(4:12) = reshape(e - identity3(), [9])
+    do j = 1, chain%n_bodies
+      arm = tip - st%joint_point(:, j)
+      do kk = 1, chain%n_joint_coords(j)
+        k = chain%first_coord(j) + kk - 1
+        r_jac(1:3, k) = cross(st%axes(:, kk, j), arm)
+        de = matmul(skew(st%axes(:, kk, j)), e)
+        r_jac(4:12, k) = reshape(de, [9])
+      end do
+    end do
+  end subroutine closure
+
+  pure integer function closure_rows(self)
+    class(clamp_support), intent(in) :: self
+    closure_rows = 12
+  end function closure_rows
+
+  !> Target part of the way from (p0, R0) to the clamp's pose of the last update: position
+  !> linearly, orientation along the geodesic R0 exp(s log(R0^T R_B)); s = 1 restores it.
+  subroutine blend_target(self, s, p0, r0)
+    class(clamp_support), intent(inout) :: self
+    real(dp), intent(in) :: s
+    real(dp), intent(in) :: p0(3), r0(3, 3)
+    self%position = p0 + s*(self%true_position - p0)
+    self%rotation = matmul(r0, rotation_exp(s*rotation_log(matmul(transpose(r0), self%true_rotation))))
+    if (s >= 1.0_dp) then
+      self%position = self%true_position
+      self%rotation = self%true_rotation
+    end if
+  end subroutine blend_target
+
+  subroutine free(self)
+    class(clamp_support), intent(inout) :: self
+    call motion_free(self%motion)
+  end subroutine free
+
+end module rotorcable_supports_clamp

@@ -1,0 +1,128 @@
+!> The interface of a support at the chain's far end: its constraint rows g(q, t) = 0 in the
+!> GGL form (residual, Jacobian G, G^T mu, the velocity rows G v + g_t, the acceleration bias
+!> (d/dt)^2 g at qdd = 0) and the wrench its multipliers exert on the chain.  A free end has no
+!> support and no rows.  Modelled on tblite's container_type (src/tblite/container/type.f90):
+!> a new kind of support is one type extending support_type, in a file of its own.
+!>
+!> A support is evaluated at a time by `update` (its prescribed pose and motion), then its row
+!> procedures read the chain state st (frames, absolute velocities and accelerations in the
+!> model frame) and the frame state fs (to form velocities relative to the model frame).
+module rotorcable_supports_type
+  use rotorcable_kinds, only: dp
+  use rotorcable_chain, only: chain_type
+  use rotorcable_kinematics, only: chain_state
+  use rotorcable_frame, only: frame_state
+  use rotorcable_motion_rotor, only: rotor_state
+  implicit none
+  private
+  public :: support_type
+
+  type, abstract :: support_type
+  contains
+    !> Number of constraint rows.
+    procedure(rows_i), deferred :: rows
+    !> Evaluate the prescribed pose and motion at time t.
+    procedure(update_i), deferred :: update
+    !> g(q, t).
+    procedure(residual_i), deferred :: residual
+    !> G = dg/dq.
+    procedure(jacobian_i), deferred :: jacobian
+    !> r = r + G^T mu without forming G.
+    procedure(add_jt_i), deferred :: add_jacobian_transpose_times
+    !> G v + g_t (needs the velocities in st).
+    procedure(rows_vector_i), deferred :: velocity
+    !> d^2 g/dt^2 at qdd = 0 (needs velocities and accelerations at qdd = 0 in st).
+    procedure(rows_vector_i), deferred :: bias
+    !> Force and moment of the support on the chain from the multipliers.
+    procedure(wrench_i), deferred :: wrench
+    !> A closure residual without spurious roots and its Jacobian (for projecting a start shape).
+    procedure(closure_i), deferred :: closure
+    !> Size of the closure residual.
+    procedure(rows_i), deferred :: closure_rows
+    !> Move the target pose part of the way from (p0, R0) towards the true one (continuation).
+    procedure(blend_i), deferred :: blend_target
+    !> Release C memory held by a prescribed motion.
+    procedure :: free => no_free
+  end type support_type
+
+  abstract interface
+    pure integer function rows_i(self)
+      import :: support_type
+      class(support_type), intent(in) :: self
+    end function rows_i
+
+    subroutine update_i(self, t, rs)
+      import :: support_type, dp, rotor_state
+      class(support_type), intent(inout) :: self
+      real(dp), intent(in) :: t
+      type(rotor_state), intent(in) :: rs
+    end subroutine update_i
+
+    pure subroutine residual_i(self, chain, st, g)
+      import :: support_type, chain_type, chain_state, dp
+      class(support_type), intent(in) :: self
+      type(chain_type), intent(in) :: chain
+      type(chain_state), intent(in) :: st
+      real(dp), intent(out) :: g(:)
+    end subroutine residual_i
+
+    pure subroutine jacobian_i(self, chain, st, g_jac)
+      import :: support_type, chain_type, chain_state, dp
+      class(support_type), intent(in) :: self
+      type(chain_type), intent(in) :: chain
+      type(chain_state), intent(in) :: st
+      real(dp), intent(out) :: g_jac(:, :)
+    end subroutine jacobian_i
+
+    pure subroutine add_jt_i(self, chain, st, mu, r)
+      import :: support_type, chain_type, chain_state, dp
+      class(support_type), intent(in) :: self
+      type(chain_type), intent(in) :: chain
+      type(chain_state), intent(in) :: st
+      real(dp), intent(in) :: mu(:)
+      real(dp), intent(inout) :: r(:)
+    end subroutine add_jt_i
+
+    pure subroutine rows_vector_i(self, chain, st, fs, out)
+      import :: support_type, chain_type, chain_state, frame_state, dp
+      class(support_type), intent(in) :: self
+      type(chain_type), intent(in) :: chain
+      type(chain_state), intent(in) :: st
+      type(frame_state), intent(in) :: fs
+      real(dp), intent(out) :: out(:)
+    end subroutine rows_vector_i
+
+    pure subroutine wrench_i(self, chain, st, lambda, force, moment)
+      import :: support_type, chain_type, chain_state, dp
+      class(support_type), intent(in) :: self
+      type(chain_type), intent(in) :: chain
+      type(chain_state), intent(in) :: st
+      real(dp), intent(in) :: lambda(:)
+      real(dp), intent(out) :: force(3), moment(3)
+    end subroutine wrench_i
+
+    pure subroutine closure_i(self, chain, st, r, r_jac)
+      import :: support_type, chain_type, chain_state, dp
+      class(support_type), intent(in) :: self
+      type(chain_type), intent(in) :: chain
+      type(chain_state), intent(in) :: st
+      real(dp), intent(out) :: r(:)
+      real(dp), intent(out) :: r_jac(:, :)
+    end subroutine closure_i
+
+    subroutine blend_i(self, s, p0, r0)
+      import :: support_type, dp
+      class(support_type), intent(inout) :: self
+      real(dp), intent(in) :: s
+      real(dp), intent(in) :: p0(3), r0(3, 3)
+    end subroutine blend_i
+  end interface
+
+contains
+
+  !> Release C memory (table splines); nothing by default.
+  subroutine no_free(self)
+    class(support_type), intent(inout) :: self  !< support
+  end subroutine no_free
+
+end module rotorcable_supports_type
