@@ -1,6 +1,6 @@
 """Before/after figures of the integrator's linear algebra (issue 4, item 3).
 
-The same integrations (rc_integrate_end: the integration alone, no set-up, no outputs) with
+The same integrations (harness.timed_run: the integration alone, no set-up, no outputs) with
 the solver options switched on one after the other, all in one run so that the ratios are
 comparable on a shared machine:
 
@@ -29,16 +29,13 @@ ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "benchmarks" / "results"
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-import pydriver  # noqa: E402
-from pydriver import _rotorcable  # noqa: E402
-from pydriver.study import override_deck  # noqa: E402
+from harness import prepared, timed_run  # noqa: E402
 
-CORE = _rotorcable.rotorcable_api
 CONFIGS = [
-    ("before", {"linear_solver": "'dense'", "vector_kernels": "'sundials'", "jacobian_max_age": "1"}),
-    ("+ compiled vector kernels", {"linear_solver": "'dense'", "vector_kernels": "'compiled'", "jacobian_max_age": "1"}),
-    ("+ block solver", {"linear_solver": "'block'", "vector_kernels": "'compiled'", "jacobian_max_age": "1"}),
-    ("+ Jacobian kept (default)", {"linear_solver": "'block'", "vector_kernels": "'compiled'", "jacobian_max_age": "50"}),
+    ("before", {"linear_solver": "dense", "vector_kernels": "sundials", "jacobian_max_age": 1}),
+    ("+ compiled vector kernels", {"linear_solver": "dense", "vector_kernels": "compiled", "jacobian_max_age": 1}),
+    ("+ block solver", {"linear_solver": "block", "vector_kernels": "compiled", "jacobian_max_age": 1}),
+    ("+ Jacobian kept (default)", {"linear_solver": "block", "vector_kernels": "compiled", "jacobian_max_age": 50}),
 ]
 
 
@@ -58,21 +55,18 @@ def main(argv=None) -> int:
         tmp = Path(tmp)
         for name, deck, rtol, atol in cases(tmp):
             repeat = args.repeat if "80" not in name else max(1, args.repeat // 2)
+            model, q0, v0, t_end = prepared(deck)
             for label, solver in CONFIGS:
-                path = override_deck(deck, tmp / "case.nml", {"solver": solver})
-                info = pydriver.deck_info(path)
                 walls, st = [], None
                 for _ in range(repeat):
-                    out = CORE.rc_integrate_end(str(path), 1, rtol, atol, -1.0, 0.0,
-                                                info["n_bodies"], info["n_coords"], 2)
-                    if out[-2]:
-                        raise SystemExit(bytes(out[-1]).decode().strip())
-                    walls.append(out[7])
-                    st = out[5]
+                    out = timed_run(model, q0, v0, t_end, rtol=rtol, atol=atol, **solver)
+                    walls.append(out["wall_s"])
+                    st = out["stats"]
                 rows.append({"case": name, "configuration": label, "wall_s": statistics.median(walls),
-                             "steps": int(st[0]), "residual_evals": int(st[1]), "jacobian_evals": int(st[2])})
-                print(f"{name:22s} {label:28s} {rows[-1]['wall_s'] * 1e3:9.1f} ms  steps {st[0]:6d}  "
-                      f"residuals {st[1]:6d}", flush=True)
+                             "steps": st["steps"], "residual_evals": st["residual_evals"],
+                             "jacobian_evals": st["jacobian_evals"]})
+                print(f"{name:22s} {label:28s} {rows[-1]['wall_s'] * 1e3:9.1f} ms  steps {st['steps']:6d}  "
+                      f"residuals {st['residual_evals']:6d}", flush=True)
     OUT.mkdir(parents=True, exist_ok=True)
     with open(OUT / "before_after.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))

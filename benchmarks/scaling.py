@@ -5,13 +5,14 @@ cut into n bodies, started at rest in its static equilibrium and excited by the 
 the decay test; 0.05 s are integrated with IDA (GGL index-2, rtol 1e-6, atol 1e-8).  Each n
 runs in a fresh process (peak memory = that process's max RSS) and reports:
 
-* wall time of the integration alone per simulated second (rc_integrate_end; the start
-  equilibrium and the outputs are not timed), median of ``--repeat`` runs, with the default
+* wall time of the integration alone per simulated second (harness.timed_run; the start
+  equilibrium and the outputs are not timed) and the steps it took, median of ``--repeat``
+  runs, with the default
   block (Schur-complement) linear solver and, for n <= ``--dense-max``, once with SUNDIALS's
   dense LU of the whole iteration matrix (``&solver linear_solver = 'dense'``, the "before");
-* the cost of one GGL residual, one structured Jacobian and one mass matrix (rc_time_kernels);
+* the cost of one GGL residual, one structured Jacobian and one mass matrix (core probe);
 * one factorisation and one solve of the iteration matrix at cj = 1e4: the block solver
-  against LAPACK's dense LU (dgetrf/dgetrs) of the whole matrix (rc_iteration_matrix);
+  against LAPACK's dense LU (dgetrf/dgetrs) of the whole matrix (core probe);
 * peak resident memory of the process.
 
 Writes benchmarks/results/scaling.csv and scaling.png and prints the fitted exponents.
@@ -41,6 +42,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "benchmarks" / "results"
 SIZES = (10, 20, 40, 80, 120, 200)
+T_SIM = 0.05     # simulated time per run [s]
 
 
 def deck_for(n: int, path: Path) -> Path:
@@ -57,42 +59,31 @@ def measure_one(n: int, repeat: int, dense: bool) -> dict:
     """Runs in a child process: one n, returns the measurements as a dict."""
     import resource
 
-    import pydriver
-    from pydriver import _rotorcable
-    core = _rotorcable.rotorcable_api
+    from harness import prepared, timed_run
     with tempfile.TemporaryDirectory() as tmp:
-        deck = str(deck_for(n, Path(tmp) / f"n{n}.nml"))
-        info = pydriver.deck_info(deck)
-        nb, nq, nc = info["n_bodies"], info["n_coords"], info["n_constraints"]
-        walls, stats = [], None
-        for _ in range(repeat):
-            (_cm, _tip, _wr, gmax, _s, st, _cpu, wall, stat, msg) = core.rc_integrate_end(
-                deck, 1, 1e-6, 1e-8, -1.0, 0.0, nb, nq, 2)
-            if stat:
-                raise RuntimeError(bytes(msg).decode().strip())
-            walls.append(wall)
-            stats = st
-        wall_dense = float("nan")
-        if dense:
-            from pydriver.study import override_deck
-            deck_dense = str(override_deck(deck, Path(tmp) / f"n{n}_dense.nml",
-                                           {"solver": {"linear_solver": "'dense'"}}))
-            out = core.rc_integrate_end(deck_dense, 1, 1e-6, 1e-8, -1.0, 0.0, nb, nq, 2)
-            if out[-2]:
-                raise RuntimeError(bytes(out[-1]).decode().strip())
-            wall_dense = out[7] / 0.05
-        n_rep = max(200, 200000 // n)
-        (_r, ns_res, ns_jac, ns_mass, stat, msg) = core.rc_time_kernels(deck, n_rep, 2 * nq + 2 * nc)
-        rhs = np.random.default_rng(0).standard_normal((2 * nq + 2 * nc, 1))
-        (_j, _x, ns_bf, ns_bs, ns_df, ns_ds, stat, msg) = core.rc_iteration_matrix(
-            deck, 1.0e4, rhs, max(3, 20000 // n))
+        model, q0, v0, _ = prepared(deck_for(n, Path(tmp) / f"n{n}.nml"))
+    walls, stats = [], None
+    for _ in range(repeat):
+        out = timed_run(model, q0, v0, T_SIM, rtol=1e-6, atol=1e-8)
+        walls.append(out["wall_s"])
+        stats = out["stats"]
+    wall_dense = float("nan")
+    if dense:
+        wall_dense = timed_run(model, q0, v0, T_SIM, rtol=1e-6, atol=1e-8, linear_solver="dense")["wall_s"] / T_SIM
+    nq, nc = model.nq, model.nc
+    y, yd = model.core.consistent_ggl_state(q0, v0)
+    kern = model.core.time_kernels(y, yd, max(200, 200000 // n))
+    rhs = np.random.default_rng(0).standard_normal((2 * nq + 2 * nc, 1))
+    it = model.core.iteration_matrix(y, yd, 1.0e4, rhs, max(3, 20000 // n))
     rss_kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    return {"n_bodies": n, "n_unknowns": 2 * nq + 2 * nc, "wall_per_sim_s": float(np.median(walls)) / 0.05,
-            "wall_per_sim_s_dense": wall_dense, "block_factor_ns": ns_bf, "block_solve_ns": ns_bs,
-            "lapack_dense_factor_ns": ns_df, "lapack_dense_solve_ns": ns_ds,
-            "steps": int(stats[0]), "residual_evals": int(stats[1]), "jacobian_evals": int(stats[2]),
-            "residual_ns": ns_res, "jacobian_ns": ns_jac, "mass_matrix_ns": ns_mass,
-            "peak_rss_mib": rss_kib / 1024.0, "max_g_m": float(gmax)}
+    return {"n_bodies": n, "n_unknowns": 2 * nq + 2 * nc, "wall_per_sim_s": float(np.median(walls)) / T_SIM,
+            "wall_per_sim_s_dense": wall_dense, "block_factor_ns": it["ns_block_factor"],
+            "block_solve_ns": it["ns_block_solve"], "lapack_dense_factor_ns": it["ns_dense_factor"],
+            "lapack_dense_solve_ns": it["ns_dense_solve"],
+            "steps": stats["steps"], "residual_evals": stats["residual_evals"],
+            "jacobian_evals": stats["jacobian_evals"], "residual_ns": kern["residual_ns"],
+            "jacobian_ns": kern["jacobian_ns"], "mass_matrix_ns": kern["mass_matrix_ns"],
+            "peak_rss_mib": rss_kib / 1024.0, "max_g_m": out["gmax_end"]}
 
 
 def slope(x, y) -> float:

@@ -196,15 +196,17 @@ class CoreModel:
 
     def integrate_timed(self, method: int, settings: dict, t0: float, t_end: float, q0, v0, n_samples: int,
                         baumgarte_omega: float = 50.0) -> dict:
-        """One timed integration (1 IDA, 2 GSL rk8pd, 3 GSL msbdf) with CM samples."""
+        """One timed integration (1 IDA, 2 GSL rk8pd, 3 GSL msbdf): CM samples (n_samples, n, 3)
+        at equally spaced times t0 ... t_end, the end state, statistics, CPU and wall time of
+        the integration alone."""
         real = [settings["rtol"], settings["atol"], settings["atol_multiplier"], settings["h_max"]]
         ints = [settings["max_steps"], LINEAR_SOLVERS[settings["linear_solver"]], settings["jacobian_max_age"],
                 int(settings["vector_kernels"] == "compiled")]
-        (cm, tip, gmax, st, cpu, wall, stat, msg) = _probes.rc_probe_integrate(
+        (cm, q_end, v_end, st, cpu, wall, stat, msg) = _probes.rc_probe_integrate(
             self.handle, int(method), _reals(real), _ints(ints), float(baumgarte_omega), float(t0), float(t_end),
             _reals(q0), _reals(v0), int(n_samples), self.n_bodies)
         _raise(self.deck, stat, "", msg)
-        return {"cm_samples": cm, "tip_end": tip, "gmax": float(gmax),
+        return {"cm_samples": cm.transpose(2, 1, 0).copy(), "q_end": q_end, "v_end": v_end,
                 "stats": dict(zip(("steps", "residual_evals", "jacobian_evals", "error_test_failures",
                                    "convergence_failures"), (int(x) for x in st))),
                 "cpu_s": float(cpu), "wall_s": float(wall)}

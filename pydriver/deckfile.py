@@ -291,8 +291,8 @@ def _range_reason(key: Key, v) -> str:
         return f"must be positive, got {v:g}"
     if key.low == 0.0 and key.high == math.inf:
         return f"must not be negative, got {v:g}"
-    if key.type == "int" and key.high == math.inf:
-        return f"must be at least {key.low:g}, got {v}"
+    if key.type == "int":
+        return f"must be at least {key.low:g}, got {v}" if v < key.low else f"must be at most {key.high:g}, got {v}"
     return f"must be {key.range_text()}, got {v:g}"
 
 
@@ -318,10 +318,16 @@ def patch_deck(src, dst, changes: dict) -> Path:
         patch[group] = f90nml.Namelist()
         for key_name, value in keys.items():
             m = re.fullmatch(r"\s*([a-z_]\w*)\s*(?:\(\s*(\d+)\s*\))?\s*", key_name, re.I)
-            key = lookup(group, m.group(1)) if m else None
+            if m is None:
+                raise DeckError(name, group, key_name, "not a key name")
+            key = lookup(group, m.group(1))
             if key is None:
-                raise DeckError(name, group, key_name, "unknown key")
-            if isinstance(value, str) and (key.type != "str" or value[:1] in "'\""):
+                # Written as given: the deck's reader names it when the copy is read (a
+                # test or a user may want a deck with a misspelt key).
+                key = Key(group, m.group(1).lower(), "str")
+                if isinstance(value, str):
+                    value = parse_value_text(key, value, name)
+            elif isinstance(value, str) and (key.type != "str" or value[:1] in "'\""):
                 value = parse_value_text(key, value, name)
             if isinstance(value, np.ndarray):
                 value = value.tolist()

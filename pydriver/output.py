@@ -206,10 +206,8 @@ def _write_csv(path: Path, columns: dict, int_columns=("body", "mode", "joint"))
 
 
 def write_files(result, run_dir: RunDirectory, plots: bool = False) -> None:
-    """Write every file of a result into the run directory (before commit)."""
-    (run_dir.path("summary.json")).write_text(json.dumps(result.summary, indent=2, allow_nan=False) + "\n",
-                                              encoding="utf-8")
-    result.files["summary.json"] = run_dir.out / "summary.json"
+    """Write every file of a result into the run directory (before commit); summary.json last,
+    so that wherever it exists the run's other files do too."""
     if result.table is not None:
         run_dir.path("table.txt").write_text(format_table(result), encoding="utf-8")
         _write_csv(run_dir.path("table.csv"), result.table)
@@ -231,6 +229,9 @@ def write_files(result, run_dir: RunDirectory, plots: bool = False) -> None:
         from pydriver.plots import plot_result
         for name in plot_result(result, run_dir.tmp):
             result.files[name] = run_dir.out / name
+    (run_dir.path("summary.json")).write_text(json.dumps(result.summary, indent=2, allow_nan=False) + "\n",
+                                              encoding="utf-8")
+    result.files["summary.json"] = run_dir.out / "summary.json"
 
 
 def write_result(result, out, plots: bool = False) -> list[Path]:

@@ -586,7 +586,7 @@ class SweepStatus:
 
 def _plot(out: Path, table: dict, params: list, scales: dict):
     """One PNG per (main result, swept parameter) into DIR/plots/; written atomically."""
-    from pydriver.plots import _plt, _save
+    from pydriver.plots import _plt, _save_replace
     plt = _plt()
     plots = out / "plots"
     plots.mkdir(exist_ok=True)
@@ -618,8 +618,8 @@ def _plot(out: Path, table: dict, params: list, scales: dict):
                 ax.legend(fontsize=7)
             fig.suptitle(f"{name} against {p}", fontsize=10)
             # File names without the parentheses of element keys (loads.gravity(3)).
-            tmp, final = _save(fig, plots, re.sub(r"[^\w.-]", "_", f"{name}_vs_{p}") + ".png")
-            os.replace(tmp, final)
+            final = plots / (re.sub(r"[^\w.-]", "_", f"{name}_vs_{p}") + ".png")
+            _save_replace(fig, final)
             written.append(final)
     return written
 

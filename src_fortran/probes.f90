@@ -281,7 +281,7 @@ contains
   !> 2 = GSL rk8pd and 3 = GSL msbdf on the Baumgarte-stabilised index-1 ODE (thesis route).
   !> Only the integration is timed; returns the CMs at ns equally spaced samples.
   subroutine rc_probe_integrate(handle, method, settings_real, settings_int, baumgarte_omega, t0, t_end, nq, q0, &
-                                v0, ns, nb, cm_samples, tip_end, gmax, stats, cpu_s, wall_s, stat, msg)
+                                v0, ns, nb, cm_samples, q_end, v_end, stats, cpu_s, wall_s, stat, msg)
     integer(c_int), intent(in) :: handle          !< model handle
     integer(c_int), intent(in) :: method          !< 1 IDA-GGL, 2 GSL rk8pd, 3 GSL msbdf
     real(c_double), intent(in) :: settings_real(4)  !< rtol, atol, atol_multiplier, h_max
@@ -292,8 +292,7 @@ contains
     real(c_double), intent(in) :: q0(nq), v0(nq)  !< start state
     integer(c_int), intent(in) :: ns, nb          !< samples (>= 2), bodies
     real(c_double), intent(out) :: cm_samples(3, nb, ns)  !< CMs at the samples [m]
-    real(c_double), intent(out) :: tip_end(3)     !< chain tip at t_end [m]
-    real(c_double), intent(out) :: gmax           !< max |g| at t_end [m]
+    real(c_double), intent(out) :: q_end(nq), v_end(nq)  !< state at t_end
     integer(c_int), intent(out) :: stats(5)       !< steps, rhs/residual evals, Jacobians, error-test fails, conv fails
     real(c_double), intent(out) :: cpu_s, wall_s  !< CPU and wall time of the integration [s]
     integer(c_int), intent(out) :: stat           !< 0 = ok
@@ -303,10 +302,10 @@ contains
     type(integrator_settings) :: settings
     type(solver_stats) :: ss
     type(ode_settings) :: ode
-    real(dp) :: t(max(ns, 2)), q_out(nq, max(ns, 2)), v_out(nq, max(ns, 2)), g(6), c0, c1
+    real(dp) :: t(max(ns, 2)), q_out(nq, max(ns, 2)), v_out(nq, max(ns, 2)), c0, c1
     integer(kind=8) :: k0, k1, rate
     integer :: k, m
-    cm_samples = 0.0_dp; tip_end = 0.0_dp; gmax = 0.0_dp; stats = 0; cpu_s = 0.0_dp; wall_s = 0.0_dp
+    cm_samples = 0.0_dp; q_end = 0.0_dp; v_end = 0.0_dp; stats = 0; cpu_s = 0.0_dp; wall_s = 0.0_dp
     model => model_of(handle, error)
     if (error%code /= 0) then
       call to_status(error, stat, msg)
@@ -346,12 +345,8 @@ contains
         call positions_at(model, t(k), q_out(:, k))
         cm_samples(:, :, k) = model%st%cm
       end do
-      call positions_at(model, t(m), q_out(:, m))
-      tip_end = model%st%joint_point(:, nb + 1)
-      if (model%nc > 0) then
-        call constraint_residual(model, t(m), q_out(:, m), g(1:model%nc))
-        gmax = maxval(abs(g(1:3)))
-      end if
+      q_end = q_out(:, m)
+      v_end = v_out(:, m)
     end if
     call to_status(error, stat, msg)
   end subroutine rc_probe_integrate

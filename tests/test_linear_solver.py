@@ -9,21 +9,18 @@ import numpy as np
 import pytest
 
 import pydriver
-from pydriver import _rotorcable
 from conftest import INPUTS
 
-CORE = _rotorcable.rotorcable_api
 DECKS = ["three_body", "six_link_dynamic", "uh60_part2_decay"]
 
 
 def _iteration(stem, cj, n_rhs=4):
-    deck = str(INPUTS / f"{stem}.nml")
-    info = pydriver.deck_info(deck)
-    n = 2 * info["n_coords"] + 2 * info["n_constraints"]
-    b = np.random.default_rng(7).standard_normal((n, n_rhs))
-    jac, x, *_times, stat, msg = CORE.rc_iteration_matrix(deck, cj, b, 1)
-    assert stat == 0, bytes(msg).decode()
-    return jac, x, b
+    """The iteration matrix at the deck's consistent start (mu = 0) and its block solutions."""
+    m = pydriver.Model.from_deck(INPUTS / f"{stem}.nml")
+    y, yd = m.core.consistent_ggl_state(m.q0, m.v0)
+    b = np.random.default_rng(7).standard_normal((len(y), n_rhs))
+    out = m.core.iteration_matrix(y, yd, cj, b)
+    return out["jacobian"], out["x_block"], b
 
 
 @pytest.mark.parametrize("stem", DECKS)
@@ -77,21 +74,18 @@ def test_ggl_constraint_rows_against_formed_jacobian(stem):
     clamp_velocity); they must equal the products with G from constraint_jacobian
     (finite-difference-checked in test_model_kernels).  Random q, v, mu; only round-off
     separates the two (measured ~1e-16 relative), bound 1e-12."""
-    deck = str(INPUTS / f"{stem}.nml")
-    info = pydriver.deck_info(deck)
-    nq, nc = info["n_coords"], info["n_constraints"]
+    m = pydriver.Model.from_deck(INPUTS / f"{stem}.nml")
+    nq, nc = m.nq, m.nc
     n = 2 * nq + 2 * nc
     rng = np.random.default_rng(3)
     y = rng.standard_normal(n)
     yd = rng.standard_normal(n)
-    r, stat, msg = CORE.rc_ggl_residual(deck, 0.0, y, yd)
-    assert stat == 0, bytes(msg).decode()
+    r = m.core.ggl_residual(y, yd)
     y0 = y.copy()
     y0[2 * nq + nc:] = 0.0
-    r0, *_ = CORE.rc_ggl_residual(deck, 0.0, y0, yd)
+    r0 = m.core.ggl_residual(y0, yd)
     q, v, mu = y[:nq], y[nq:2 * nq], y[2 * nq + nc:]
-    out = CORE.rc_evaluate(deck, 0.0, q, v, np.zeros(nq), np.zeros(nc))
-    g_jac = out[5]
+    g_jac = m.core.evaluate(q, v, np.zeros(nq), np.zeros(nc))["G"]
     gtmu = g_jac.T @ mu
     assert np.abs((r - r0)[:nq] - gtmu).max() <= 1e-12 * np.abs(gtmu).max()
     assert np.abs(r0[:nq] - (yd[:nq] - v)).max() <= 1e-13

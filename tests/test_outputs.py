@@ -17,7 +17,8 @@ def test_static_outputs(tmp_path):
         assert key in s
     assert set(s["reactions"]) == {"A", "B"} and len(s["reactions"]["B"]["M"]) == 3
     rows = list(csv.DictReader((tmp_path / "table.csv").open()))
-    assert list(rows[0]) == ["body", "gamma_deg", "beta_deg", "x_m", "y_m", "z_m"]
+    # The thesis's columns first, in their order; more columns may follow (joint loads).
+    assert list(rows[0])[:6] == ["body", "gamma_deg", "beta_deg", "x_m", "y_m", "z_m"]
     assert len(rows) == 5
     # table.csv carries full precision, table.txt the thesis's 2/4 decimals.
     assert float(rows[2]["y_m"]) == pytest.approx(res.table["y_m"][2], abs=1e-15)
@@ -35,9 +36,9 @@ def test_dynamic_outputs(tmp_path):
     expect = (["t"] + [f"{c}{j}" for j in range(1, n + 1) for c in "xyz"]
               + [f"{a}{j}_deg" for j in range(1, n + 1) for a in ("gamma", "beta")]
               + ["FA_x", "FA_y", "FA_z", "MA_x", "MA_y", "MA_z", "FB_x", "FB_y", "FB_z", "MB_x", "MB_y", "MB_z"])
-    assert header == expect
+    assert header[:len(expect)] == expect          # more columns may follow (joint loads, ...)
     data = np.loadtxt(tmp_path / "timeseries.csv", delimiter=",", skiprows=1)
-    assert data.shape == (2001, len(expect))
+    assert data.shape == (2001, len(header))
     assert np.allclose(data[:, expect.index("FB_z")], res.timeseries["FB_z"], rtol=0, atol=1e-12)
     s = json.loads((tmp_path / "summary.json").read_text())
     for key in ("steps", "residual_evals", "jacobian_evals", "error_test_failures", "convergence_failures"):

@@ -144,7 +144,8 @@ def test_load_results_single_run(tmp_path):
 def wait_for_records(proc, out, n=1, timeout=120):
     deadline = time.monotonic() + timeout
     while proc.poll() is None and time.monotonic() < deadline:
-        if len(list(out.glob("runs/*/summary.json"))) >= n:
+        # Records only: "[!.]*" skips the hidden temporaries a run writes into first.
+        if len(list(out.glob("runs/[!.]*/summary.json"))) >= n:
             return
         time.sleep(0.001)
 
@@ -161,7 +162,7 @@ def test_killed_sweep_resumes(reference, tmp_path, sig):
         wait_for_records(proc, out)
         os.killpg(proc.pid, sig)
         stdout, stderr = proc.communicate(timeout=60)
-        before = {p.parent.name: p.stat().st_mtime_ns for p in out.glob("runs/*/summary.json")}
+        before = {p.parent.name: p.stat().st_mtime_ns for p in out.glob("runs/[!.]*/summary.json")}
         if len(before) < 24:
             break
     assert 1 <= len(before) < 24, "the sweep finished before it could be interrupted"

@@ -123,6 +123,6 @@ def test_dynamic_settling_agrees_with_newton(tmp_path):
                       {"solver": {"static_method": "'settle'", "t_end": "3.0", "dt_out": "0.01",
                                   "settle_tol": "1.0e-5"}})
     b = pydriver.run_deck(p)
-    assert b.summary["solver"]["newton_iterations"] > 100     # IDA steps, not Newton
+    assert b.summary["solver"]["steps"] > 100                  # IDA steps, not Newton
     for k in ("x_m", "y_m", "z_m"):
         assert np.max(np.abs(a.table[k] - b.table[k])) < 1e-6  # issue 3: 1e-6 m

@@ -1,0 +1,39 @@
+"""What every benchmark measures the same way: one timed integration of a deck's model by
+the Fortran core (the integration alone: no deck reading, no start equilibrium, no outputs),
+and the check that the run did the work (steps taken, a finite answer)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+import pydriver
+from pydriver.analyses.dynamics import start_state
+
+METHODS = {"rotorcable-IDA": 1, "gsl-rk8pd": 2, "gsl-msbdf": 3}
+
+
+class NoWorkDone(RuntimeError):
+    """A benchmark run that took no steps or gave a non-finite answer: its time means nothing."""
+
+
+def prepared(deck_or_model):
+    """(model, consistent q0, v0, t_end) of a deck, the start state as the run would use it."""
+    m = deck_or_model if isinstance(deck_or_model, pydriver.Model) else pydriver.Model.from_deck(deck_or_model)
+    q0, v0 = start_state(m)
+    y, _ = m.core.consistent_ggl_state(q0, v0)
+    return m, y[:m.nq], y[m.nq:2 * m.nq], float(m.deck["solver.t_end"])
+
+
+def timed_run(model, q0, v0, t_end: float, method: str = "rotorcable-IDA", rtol: float = 1e-6,
+              atol: float | None = None, samples: int = 2, baumgarte: float = 50.0, **solver) -> dict:
+    """One timed integration; raises NoWorkDone unless it took steps and ended finite."""
+    settings = model.solver_settings()
+    settings.update(rtol=rtol, atol=rtol * 1e-2 if atol is None else atol, **solver)
+    out = model.core.integrate_timed(METHODS[method], settings, 0.0, t_end, q0, v0, samples, baumgarte)
+    if out["stats"]["steps"] <= 0 or not np.all(np.isfinite(out["cm_samples"])):
+        raise NoWorkDone(f"{model.name}, {method}, rtol {rtol:g}: {out['stats']['steps']} steps; no work done")
+    end = model.core.sample([t_end], out["q_end"][:, None], out["v_end"][:, None])
+    out["reactions_end"] = end["wrenches"][0]
+    out["gmax_end"] = float(end["g_max"][0])
+    out["tip_end"] = end["joints"][:, -1, 0]
+    return out
