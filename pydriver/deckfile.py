@@ -27,6 +27,16 @@ from pydriver.schema import GROUPS, REQUIRED_GROUPS, Key, lookup
 # expression does it in milliseconds.  Quoted strings are kept whole ('it''s' doubles a quote).
 _COMMENT = re.compile(r"""('(?:[^'\n]|'')*'|"(?:[^"\n]|"")*")|![^\n]*""")
 _BLANK_LINES = re.compile(r"\n[ \t\r]*(?=\n)")
+# Long plain lists of numbers (a table of thousands of samples) are parsed by numpy, and
+# f90nml sees a single sentinel in their place: f90nml spends ~10 us per value in Python
+# (6 s for a 14 MB table).  Only lists that are nothing but numbers qualify (no repeat
+# counts, nulls or strings) and that end where the next assignment, '/' or '&' begins, so
+# the namelist meaning is unchanged; anything else stays f90nml's.  A run of number
+# characters is found first (one character class: fast), then checked token by token.
+_NUMBER_RUN = re.compile(r"=([ \t\r\n]*)([0-9eEdD.+\-,\s]{2048,})")
+_NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eEdD][-+]?\d+)?")
+_NEXT = re.compile(r"[ \t\r\n,]*(?:/|&|[A-Za-z_]\w*[ \t\r\n]*(?:\(|=))")
+_SENTINEL = -7_316_502_489_151
 
 
 @dataclass
@@ -102,6 +112,38 @@ def strip_comments(text: str) -> str:
     return _BLANK_LINES.sub("", _COMMENT.sub(lambda m: m.group(1) or "", text))
 
 
+def _fast_tables(text: str, tables: list) -> str:
+    """Replace long plain number lists by sentinels; their arrays go to ``tables``."""
+    out, pos = [], 0
+    for m in _NUMBER_RUN.finditer(text):
+        body = m.group(2)
+        # The run may have swallowed the start of the next name ("..., 2.0  d_beta" stops at
+        # '_'): cut back to the last character that can end a number.
+        end = len(body.rstrip())
+        while end and body[end - 1] not in "0123456789.":
+            end -= 1
+        head = body[:end]
+        tokens = head.replace(",", " ").split()
+        if (len(tokens) < 256 or re.search(r",\s*,", head)
+                or not _NEXT.match(text, m.start(2) + end)
+                or not all(_NUMBER.fullmatch(tok) for tok in (tokens[0], tokens[-1]))):
+            continue
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            try:
+                values = np.fromstring(head.replace("d", "e").replace("D", "e").replace(",", " "), sep=" ")
+            except (ValueError, DeprecationWarning):
+                continue
+        if values.size != len(tokens):
+            continue
+        tables.append(values)
+        out.append(text[pos:m.start(2)])
+        out.append(str(_SENTINEL + len(tables) - 1))
+        pos = m.start(2) + end
+    out.append(text[pos:])
+    return "".join(out)
+
+
 def parse_namelist(text: str, deck: str):
     """f90nml's parse of a namelist text; any parse problem becomes a DeckError.
 
@@ -109,10 +151,21 @@ def parse_namelist(text: str, deck: str):
     it prints on malformed input is captured, never shown.
     """
     sink = io.StringIO()
+    tables: list[list[float]] = []
+
+    text = _fast_tables(text, tables)
     try:
         with warnings.catch_warnings(), contextlib.redirect_stdout(sink):
             warnings.simplefilter("error")
-            return f90nml.reads(text)
+            nml = f90nml.reads(text)
+        if tables:
+            for group in nml.values():
+                for body in (group if isinstance(group, list) else [group]):
+                    for key, value in body.items():
+                        if isinstance(value, int) and not isinstance(value, bool) and \
+                                _SENTINEL <= value < _SENTINEL + len(tables):
+                            body[key] = tables[value - _SENTINEL]
+        return nml
     except Warning as exc:
         msg = str(exc).replace("f90nml: warning: ", "")
         raise DeckError(deck, "", "", f"namelist: {msg} (an element assignment a(i) = takes one "
@@ -212,6 +265,10 @@ def normalize(key: Key, raw, start, n: int, deck: str):
     def fail(reason):
         raise DeckError(deck, key.group, key.name, reason)
 
+    if isinstance(raw, np.ndarray):
+        if key.type == "real" and key.is_array and not start:
+            return _real_array(key, raw, n, fail)
+        raw = raw.tolist()
     items = raw if isinstance(raw, list) else [raw]
     if not key.is_array:
         if start is not None and start != [1]:
@@ -255,6 +312,21 @@ def normalize(key: Key, raw, start, n: int, deck: str):
         fail(f"needs {what}; element{'s' if len(missing) > 1 else ''} "
              f"{', '.join(map(str, missing[:8]))}{' ...' if len(missing) > 8 else ''} not set")
     return np.asarray(out, dtype=float if key.type == "real" else object)
+
+
+def _real_array(key: Key, a: np.ndarray, n: int, fail) -> np.ndarray:
+    """A long real list (numpy's parse, see _fast_tables), checked as a whole."""
+    length = array_length(key, n)
+    if length is not None and a.size != length:
+        fail(f"needs {length} values, got {a.size}")
+    bad = ~np.isfinite(a)
+    if np.any(bad):
+        fail(f"must be finite, got {a[bad][0]} (value {int(np.argmax(bad)) + 1})")
+    lo = (a <= key.low) if key.low_open else (a < key.low)
+    hi = (a >= key.high) if key.high_open else (a > key.high)
+    if np.any(lo | hi):
+        fail(_range_reason(key, float(a[np.argmax(lo | hi)])))
+    return a.astype(float)
 
 
 def _element(key: Key, v, fail):

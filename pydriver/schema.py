@@ -200,7 +200,7 @@ def lookup(group: str, name: str) -> Key | None:
 def reference_markdown() -> str:
     """``docs/deck_reference.md``: the schema as tables, one per group (generated)."""
     lines = ["# Deck reference", "",
-             "Generated from `pydriver/schema.py` by `python -m pydriver schema-doc`; do not edit by hand "
+             "Generated from `pydriver/schema.py` by `python -m pydriver.deck_reference`; do not edit by hand "
              "(CI checks that this file is current).", "",
              "A deck is a Fortran namelist file: groups `&name ... /`, keys `key = value`, arrays as "
              "`key = v1, v2, 3*v3` or element by element `key(2) = v`, comments after `!`.  "
@@ -213,7 +213,8 @@ def reference_markdown() -> str:
                   "|---|---|---|---|---|---|---|"]
         for key in keys.values():
             default = "—" if key.default is None else _default_text(key.default)
-            lines.append(f"| `{key.name}` | {key.type} | {key.shape} | {key.unit} | {key.range_text()} "
+            allowed = key.range_text().replace("|", "or")        # a bare | would split the cell
+            lines.append(f"| `{key.name}` | {key.type} | {key.shape} | {key.unit} | {allowed} "
                          f"| {default} | {key.doc} |")
         lines.append("")
     return "\n".join(lines)
@@ -227,3 +228,4 @@ def _default_text(v) -> str:
     if isinstance(v, (tuple, list)):
         return ", ".join(_num(x) for x in v)
     return _num(v)
+
