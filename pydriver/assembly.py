@@ -86,7 +86,7 @@ def represented_lengths(deck: Deck, b: Bodies) -> np.ndarray:
     return ell
 
 
-def joint_constants(deck: Deck, b: Bodies, q0: np.ndarray, first_coord: np.ndarray) -> tuple:
+def joint_constants(deck: Deck, b: Bodies) -> tuple:
     """Stiffness, damping and rest angle per coordinate (eq. 4.78-4.86)."""
     joint = deck["chain.joint"]
     n = deck.n_bodies
@@ -99,15 +99,12 @@ def joint_constants(deck: Deck, b: Bodies, q0: np.ndarray, first_coord: np.ndarr
         if deck["chain.first_body"] == "pivot":
             c_bend[0] = c_twist[0] = 0.0
         tau = deck["cable.damping_time"]
+        # Every spring rests straight; joint 1's relative to the frame of clamp A (&clamp_a),
+        # whose axis is the direction in which the clamp holds the cable.
         for j in range(n):
             c_rows.append([c_bend[j], c_bend[j], c_twist[j]][:per_joint])
             d_rows.append([tau * c_bend[j], tau * c_bend[j], tau * c_twist[j]][:per_joint])
             rest_rows.append([0.0] * per_joint)
-        if deck["chain.first_body"] == "clamped":
-            # The clamp at A holds the cable end at the start shape's first-body orientation:
-            # joint 1's spring rests there.
-            k = first_coord[0] - 1
-            rest_rows[0] = list(q0[k:k + per_joint])
     else:
         s = {k: deck[f"springs.{k}"] for k in ("c_gamma", "c_beta", "d_gamma", "d_beta", "d_twist")}
         c_tw = deck["springs.c_twist"] if deck["springs.c_twist"] is not None else np.zeros(n)
@@ -154,12 +151,13 @@ def build(deck: Deck) -> tuple[CoreModel, dict]:
     beta = np.asarray(deck["shape.beta_deg"], float) * DEG
     core = CoreModel(deck.name, b.lengths, b.radii, b.masses, deck["chain.joint"], b.locked,
                      np.vstack([gamma, beta]))
-    core.set_base(np.zeros(3), np.eye(3))
+    base_rotation = rot_z(deck["clamp_a.gamma_deg"] * DEG) @ rot_y(deck["clamp_a.beta_deg"] * DEG)
+    core.set_base(np.zeros(3), base_rotation)
     core.finish()                                  # kinematics for the start shape
     q0, v0 = core.thesis_coordinates(gamma, beta, np.asarray(deck["shape.gamma_rate_deg"]) * DEG,
                                      np.asarray(deck["shape.beta_rate_deg"]) * DEG)
     first_coord = _first_coords(b.locked, {"zy": 2, "xy": 2, "xyz": 3}[deck["chain.joint"]])
-    c, d, rest = joint_constants(deck, b, q0, first_coord)
+    c, d, rest = joint_constants(deck, b)
     if np.any(c != 0.0) or np.any(d != 0.0):
         core.add_load("joint_springs", reals=np.concatenate([c, d, rest]), context="&springs")
     g = np.asarray(deck["loads.gravity"], float)
@@ -187,6 +185,7 @@ def build(deck: Deck) -> tuple[CoreModel, dict]:
     core.finish()
     clamp = (np.asarray(position, float), np.asarray(rotation, float)) if deck["clamp_b.active"] else None
     return core, {"bodies": b, "first_coord": first_coord, "stiffness": c, "damping": d, "rest": rest,
+                  "base_rotation": base_rotation,
                   "clamp": clamp, "rotor": rot, "q0": q0, "v0": v0}
 
 

@@ -88,7 +88,7 @@ def scene(path) -> Scene:
                  locked_angles=np.column_stack([np.radians(deck["shape.gamma_deg"]),
                                                 np.radians(deck["shape.beta_deg"])]),
                  first_coord=d["first_coord"], stiffness=d["stiffness"], damping=d["damping"], rest=d["rest"],
-                 base_position=np.zeros(3), base_rotation=np.eye(3), clamp_active=clamp is not None,
+                 base_position=np.zeros(3), base_rotation=d["base_rotation"], clamp_active=clamp is not None,
                  clamp_position=clamp[0] if clamp else np.zeros(3),
                  clamp_rotation=clamp[1] if clamp else np.zeros((3, 3)),
                  gravity=np.asarray(deck["loads.gravity"], float),

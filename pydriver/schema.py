@@ -113,6 +113,10 @@ def _keys() -> list[Key]:
     add(Key("cable", "damping_time", "real", unit="s", default=0.0, **NONNEG,
             doc="structural damping, stiffness-proportional: d = damping_time * c at every joint"))
     # &clamp_a / &clamp_b ------------------------------------------------------------------
+    add(Key("clamp_a", "gamma_deg", "real", unit="deg", default=0.0,
+            doc="orientation of support A's frame (base of joint 1): thesis gamma"))
+    add(Key("clamp_a", "beta_deg", "real", unit="deg", default=0.0,
+            doc="orientation of support A's frame: thesis beta (90 = the clamp's axis along +x)"))
     add(Key("clamp_a", "moves_with", "str", default="hub", choices=("hub", "blade"),
             doc="support A is fixed on the hub, or moves with the blade (&blade)"))
     add(Key("clamp_b", "active", "bool", default=False, doc="clamp B holds the last body (6 constraint rows)"))
@@ -184,7 +188,7 @@ GROUP_DOCS = {
     "shape": "start shape (thesis angles of every body) and rates",
     "springs": "joint springs and dampers, the thesis's direct constants",
     "cable": "physical cable parameters; the joint constants are derived for any n",
-    "clamp_a": "support A at the start of the chain (the deck origin)",
+    "clamp_a": "support A at the start of the chain (the deck origin); joint 1 turns relative to its frame",
     "clamp_b": "support B holding the last body",
     "loads": "gravity, rotor speed (legacy), force pulse, tip force",
     "drag": "aerodynamic drag by the cross-flow principle",

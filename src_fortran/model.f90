@@ -23,7 +23,7 @@ module rotorcable_model
   public :: model_type, model_init, model_prepare, model_free, eom_residual, generalized_forces, mass_matrix, &
             constraint_residual, constraint_jacobian, constraint_bias, constraint_velocity, &
             solve_accelerations, positions_at, kinetic_energy, stored_energy, total_energy, &
-            switch_times, joint_diagonal
+            switch_times, joint_diagonal, all_conservative
 
   !> Everything a run needs to evaluate the equations of motion; the state is workspace.
   type :: model_type
@@ -322,6 +322,16 @@ contains
       times(j + 1) = x
     end do
   end subroutine switch_times
+
+  !> Whether every load has a potential (statics may then use the energy as merit function).
+  logical function all_conservative(model)
+    type(model_type), intent(in) :: model     !< model
+    integer :: i
+    all_conservative = .true.
+    do i = 1, size(model%loads)
+      all_conservative = all_conservative .and. model%loads(i)%term%has_potential()
+    end do
+  end function all_conservative
 
   !> The loads' constant diagonal joint-space stiffness and damping.
   subroutine joint_diagonal(model, stiffness, damping)

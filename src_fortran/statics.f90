@@ -3,9 +3,10 @@
 module rotorcable_statics
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error
-  use rotorcable_model, only: model_type, eom_residual, constraint_residual, constraint_jacobian, total_energy
+  use rotorcable_model, only: model_type, eom_residual, constraint_residual, constraint_jacobian, total_energy, &
+                              all_conservative
   use rotorcable_projection, only: project_positions, constraint_rank_margin
-  use rotorcable_linalg, only: solve_least_norm, null_space, solve_spd
+  use rotorcable_linalg, only: solve_least_norm, null_space, solve_spd, solve_dense
   implicit none
   private
   public :: static_settings, static_result, solve_static, tangent_stiffness, damping_matrix
@@ -150,7 +151,8 @@ contains
   !> 2. Newton on the constraint manifold with Levenberg-Marquardt step control: with N a
   !>    null-space basis of G, solve (N^T K N + mu I) z = -N^T f0, step q + N z, project
   !>    back onto g = 0, accept if the potential energy (gravity, rotor field, springs)
-  !>    decreases (Armijo) or the reduced gradient halves.  K = d(f0 - G^T lambda)/dq at fixed
+  !>    decreases (Armijo) or the reduced gradient halves; with a non-conservative load
+  !>    (drag), K unsymmetric and accept if the reduced gradient decreases.  K = d(f0 - G^T lambda)/dq at fixed
   !>    lambda is the tangent stiffness including the constraint curvature (central
   !>    differences of the O(n) residual).  mu -> 0 near the solution: quadratic convergence;
   !>    mu > 0 far from it or where N^T K N is indefinite: a descent step, so the iteration
@@ -170,12 +172,15 @@ contains
     real(dp) :: z(model%nq - model%nc), q_try(model%nq), lam_try(model%nc), f_try(model%nq)
     real(dp) :: basis_try(model%nq, model%nq - model%nc), grad_try(model%nq - model%nc), g(max(model%nc, 1))
     real(dp) :: zero(model%nq), mu, scale_h, v_now, v_try, t, margin, floor
-    logical :: accepted, converged
+    logical :: accepted, converged, conservative
     character(len=96) :: buf
 
     nq = model%nq; nc = model%nc; nf = nq - nc
     zero = 0.0_dp
     t = settings%t
+    ! With a non-conservative load (drag) the potential energy is no merit function and the
+    ! tangent stiffness is not symmetric: Levenberg-Marquardt on the reduced gradient instead.
+    conservative = all_conservative(model)
     if (project_positions(model, t, q) > 1.0e-9_dp) then
       call closure_failure(model, t, q, error)
       return
@@ -203,7 +208,7 @@ contains
       res%jacobian_evals = res%jacobian_evals + 1
       floor = 1.0e3_dp*epsilon(1.0_dp)*maxval(abs(k_tan))*max(1.0_dp, maxval(abs(q)))
       hess = matmul(transpose(basis), matmul(k_tan, basis))
-      hess = 0.5_dp*(hess + transpose(hess))
+      if (conservative) hess = 0.5_dp*(hess + transpose(hess))
       scale_h = max(maxval(abs(hess)), tiny(1.0_dp))
       accepted = .false.
       do cut = 0, 60
@@ -212,14 +217,22 @@ contains
           hm(i, i) = hm(i, i) + mu
         end do
         z = -grad
-        call solve_spd(hm, z, info)
+        if (conservative) then
+          call solve_spd(hm, z, info)
+        else
+          call solve_dense(hm, z, info)
+        end if
         if (info == 0) then
           q_try = q + matmul(basis, z)
           if (project_positions(model, t, q_try) <= 1.0e-9_dp) then
             call reduced_gradient(model, t, q_try, lam_try, f_try, basis_try, grad_try, res%residual_evals)
             v_try = total_energy(model, t, q_try, zero)
-            accepted = v_try <= v_now + 1.0e-4_dp*dot_product(grad, z) .or. &
-                       norm2(grad_try) <= 0.5_dp*norm2(grad)
+            if (conservative) then
+              accepted = v_try <= v_now + 1.0e-4_dp*dot_product(grad, z) .or. &
+                         norm2(grad_try) <= 0.5_dp*norm2(grad)
+            else
+              accepted = norm2(grad_try) <= (1.0_dp - 1.0e-4_dp)*norm2(grad)
+            end if
             if (accepted) exit
           end if
         end if
