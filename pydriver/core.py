@@ -9,13 +9,46 @@ as :class:`~pydriver.errors.RunError`.
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
+import os
+
 import numpy as np
 
 from pydriver import _rotorcable
 from pydriver.errors import DeckError, RunError
 
+
+class _FpeTrapped:
+    """The core's routines with floating-point exceptions trapped while they run (SIGFPE on an
+    invalid operation, a division by zero or an overflow), for the debug build's test suite
+    (ROTORCABLE_FPE_TRAP=1, .ci/tests).  gfortran's -ffpe-trap only acts through a Fortran
+    main program, which a Python extension has not; the traps are switched on for the call
+    only, since numpy and matplotlib produce inf and NaN on purpose between calls."""
+
+    _FLAGS = 0x01 | 0x04 | 0x08          # FE_INVALID | FE_DIVBYZERO | FE_OVERFLOW (x86-64 fenv.h)
+
+    def __init__(self, module):
+        self._module = module
+        self._libm = ctypes.CDLL(ctypes.util.find_library("m"))
+
+    def __getattr__(self, name):
+        fn = getattr(self._module, name)
+
+        def trapped(*args):
+            self._libm.feclearexcept(self._FLAGS)
+            self._libm.feenableexcept(self._FLAGS)
+            try:
+                return fn(*args)
+            finally:
+                self._libm.fedisableexcept(self._FLAGS)
+        return trapped
+
+
 _api = _rotorcable.rotorcable_api
 _probes = _rotorcable.rotorcable_probes
+if os.environ.get("ROTORCABLE_FPE_TRAP") == "1":
+    _api, _probes = _FpeTrapped(_api), _FpeTrapped(_probes)
 
 JOINT_KINDS = {"zy": 1, "xy": 2, "xyz": 3}
 ROTOR_PROFILES = {"constant": 1, "runup": 2, "table": 3}

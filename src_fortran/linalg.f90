@@ -1,6 +1,7 @@
 !> Thin, checked wrappers around the LAPACK routines rotorcable uses.
 module rotorcable_linalg
   use rotorcable_kinds, only: dp
+  use rotorcable_fpe_guard, only: fpe_pause, fpe_resume
   implicit none
   private
   public :: solve_dense, solve_least_norm, null_space, solve_spd, singular_values, all_finite
@@ -95,6 +96,7 @@ contains
     real(dp), allocatable :: aw(:, :), work(:)
     real(dp) :: u(1, 1), vt(1, 1), wq(1)
     integer :: m, n
+    logical :: halting(3)
     m = size(a, 1); n = size(a, 2)
     s = 0.0_dp
     if (.not. all_finite(a)) then
@@ -102,9 +104,11 @@ contains
       return
     end if
     aw = a
+    call fpe_pause(halting)
     call dgesvd('N', 'N', m, n, aw, m, s, u, 1, vt, 1, wq, -1, info)
     allocate (work(int(wq(1))))
     call dgesvd('N', 'N', m, n, aw, m, s, u, 1, vt, 1, work, size(work), info)
+    call fpe_resume(halting)
   end subroutine singular_values
 
   !> Solve A x = b in place (LU with partial pivoting, LAPACK dgesv); info /= 0 if singular.
@@ -113,6 +117,7 @@ contains
     real(dp), intent(inout) :: b(:)           !< right-hand side, overwritten by the solution
     integer, intent(out) :: info              !< LAPACK status (0 = ok)
     integer :: ipiv(size(a, 1)), n
+    logical :: halting(3)
     n = size(a, 1)
     if (n == 0) then
       info = 0
@@ -122,7 +127,9 @@ contains
       info = INFO_NOT_FINITE
       return
     end if
+    call fpe_pause(halting)
     call dgesv(n, 1, a, n, ipiv, b, n, info)
+    call fpe_resume(halting)
   end subroutine solve_dense
 
   !> Minimum-norm least-squares solution of A x = b (LAPACK dgelsd), A of shape (m,n).
@@ -136,6 +143,7 @@ contains
     integer :: m, n, ldb, rank, lwork, liwork
     real(dp) :: wq(1)
     integer :: iwq(1)
+    logical :: halting(3)
     m = size(a, 1); n = size(a, 2); ldb = max(m, n)
     x = 0.0_dp
     if (.not. (all_finite(a) .and. all_finite(b))) then
@@ -146,10 +154,12 @@ contains
     allocate (bw(ldb), s(min(m, n)))
     bw = 0.0_dp
     bw(1:m) = b
+    call fpe_pause(halting)
     call dgelsd(m, n, 1, aw, m, bw, ldb, s, -1.0_dp, rank, wq, -1, iwq, info)
     lwork = int(wq(1)); liwork = max(1, iwq(1))
     allocate (work(lwork), iwork(liwork))
     call dgelsd(m, n, 1, aw, m, bw, ldb, s, -1.0_dp, rank, work, lwork, iwork, info)
+    call fpe_resume(halting)
     x = bw(1:n)
   end subroutine solve_least_norm
 
@@ -162,6 +172,7 @@ contains
     real(dp), allocatable :: aw(:, :), s(:), vt(:, :), work(:)
     real(dp) :: u(1, 1), wq(1)
     integer :: m, n, lwork
+    logical :: halting(3)
     m = size(a, 1); n = size(a, 2)
     if (m == 0) then
       basis = 0.0_dp
@@ -178,10 +189,12 @@ contains
     end if
     aw = a
     allocate (s(min(m, n)), vt(n, n))
+    call fpe_pause(halting)
     call dgesvd('N', 'A', m, n, aw, m, s, u, 1, vt, n, wq, -1, info)
     lwork = int(wq(1))
     allocate (work(lwork))
     call dgesvd('N', 'A', m, n, aw, m, s, u, 1, vt, n, work, lwork, info)
+    call fpe_resume(halting)
     basis = transpose(vt(m + 1:n, :))
   end subroutine null_space
 
@@ -192,6 +205,7 @@ contains
     real(dp), intent(inout) :: b(:)           !< right-hand side -> solution
     integer, intent(out) :: info              !< LAPACK status (0 = ok)
     integer :: n
+    logical :: halting(3)
     n = size(a, 1)
     info = 0
     if (n == 0) return
@@ -199,9 +213,10 @@ contains
       info = INFO_NOT_FINITE
       return
     end if
+    call fpe_pause(halting)
     call dpotrf('L', n, a, n, info)
-    if (info /= 0) return
-    call dpotrs('L', n, 1, a, n, b, n, info)
+    if (info == 0) call dpotrs('L', n, 1, a, n, b, n, info)
+    call fpe_resume(halting)
   end subroutine solve_spd
 
 end module rotorcable_linalg

@@ -15,7 +15,8 @@ module rotorcable_modal
   use rotorcable_errors, only: error_type, fatal_error
   use rotorcable_model, only: model_type, mass_matrix, constraint_jacobian
   use rotorcable_statics, only: tangent_stiffness, damping_matrix
-  use rotorcable_linalg, only: null_space
+  use rotorcable_linalg, only: null_space, all_finite
+  use rotorcable_fpe_guard, only: fpe_pause, fpe_resume
   implicit none
   private
   public :: modal_analysis
@@ -59,6 +60,7 @@ contains
     real(dp), allocatable :: basis(:, :), m_full(:, :), k_full(:, :), d_full(:, :), g_jac(:, :)
     real(dp), allocatable :: m_r(:, :), k_r(:, :), d_r(:, :), a(:, :), b(:, :), w(:), work(:)
     real(dp), allocatable :: ar(:), ai(:), be(:), vr(:, :), vl(:, :), z(:, :)
+    logical :: halting(3)
     real(dp) :: wq(1), mac, mac_best, omega, s_re, s_im, w_zero, xr(size(q)), xi(size(q)), num_r, num_i, den_x
 
     nq = model%nq; nc = model%nc; nf = nq - nc
@@ -77,12 +79,18 @@ contains
     m_r = 0.5_dp*(m_r + transpose(m_r))
     k_r = 0.5_dp*(k_r + transpose(k_r))
 
+    if (.not. (all_finite(m_r) .and. all_finite(k_r) .and. all_finite(d_r))) then
+      call fatal_error(error, 'modal analysis: non-finite mass, stiffness or damping matrix')
+      return
+    end if
     ! Undamped: K_r phi = w^2 M_r phi.
     a = k_r; b = m_r
     allocate (w(nf))
+    call fpe_pause(halting)
     call dsygv(1, 'V', 'U', nf, a, nf, b, nf, w, wq, -1, info)
     lwork = int(wq(1)); allocate (work(lwork))
     call dsygv(1, 'V', 'U', nf, a, nf, b, nf, w, work, lwork, info)
+    call fpe_resume(halting)
     if (info /= 0) then
       call fatal_error(error, 'modal analysis: generalized symmetric eigenproblem failed (dsygv)')
       return
@@ -111,9 +119,11 @@ contains
     a(nf + 1:, 1:nf) = -k_r
     a(nf + 1:, nf + 1:) = -d_r
     b(nf + 1:, nf + 1:) = m_r
+    call fpe_pause(halting)
     call dggev('N', 'V', 2*nf, a, 2*nf, b, 2*nf, ar, ai, be, vl, 1, vr, 2*nf, wq, -1, info)
     lwork = int(wq(1)); allocate (work(lwork))
     call dggev('N', 'V', 2*nf, a, 2*nf, b, 2*nf, ar, ai, be, vl, 1, vr, 2*nf, work, lwork, info)
+    call fpe_resume(halting)
     if (info /= 0) then
       call fatal_error(error, 'modal analysis: damped eigenproblem failed (dggev)')
       return

@@ -68,13 +68,14 @@ contains
   !> Force residual f0 = -k(q, 0) (no multipliers) at rest relative to the model frame.
   subroutine rest_forces(model, t, q, lambda, f, n_eval)
     type(model_type), intent(inout) :: model
-    real(dp), intent(in) :: t, q(:), lambda(:)
+    real(dp), intent(in) :: t, q(:)
+    real(dp), intent(in), optional :: lambda(:)    !< multipliers (none: lambda = 0)
     real(dp), intent(out) :: f(:)
     integer, intent(inout) :: n_eval
     real(dp) :: zero(model%nq), lam(max(model%nc, 1))
     zero = 0.0_dp
     lam = 0.0_dp
-    lam(1:model%nc) = lambda
+    if (present(lambda)) lam(1:model%nc) = lambda
     call eom_residual(model, t, q, zero, zero, lam, f)
     n_eval = n_eval + 1
   end subroutine rest_forces
@@ -134,7 +135,7 @@ contains
     integer, intent(inout) :: n_eval
     real(dp) :: g_jac(model%nc, model%nq)
     integer :: info
-    call rest_forces(model, t, q, [real(dp) ::], f, n_eval)
+    call rest_forces(model, t, q, f=f, n_eval=n_eval)
     if (model%nc > 0) then
       call constraint_jacobian(model, t, q, g_jac)
       call solve_least_norm(transpose(g_jac), f, lambda, info)
