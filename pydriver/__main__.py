@@ -44,6 +44,11 @@ def main(argv=None) -> int:
             print(f"error: {exc}", file=sys.stderr)
             status = 1
             continue
+        except OSError as exc:               # an output directory that cannot be written
+            print(f"error: deck '{Path(deck).name}': cannot write the results to {out}: "
+                  f"{exc.strerror or exc}", file=sys.stderr)
+            status = 1
+            continue
         s = res.summary
         print(f"{s['case']} ({s['analysis']}): {s['wall_time_s']:.3f} s, "
               f"max |g| = {s['max_constraint_violation_m']:.2e} m -> {out}")

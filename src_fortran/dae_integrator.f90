@@ -11,7 +11,8 @@ module rotorcable_dae_integrator
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error
   use rotorcable_model, only: model_type, solve_accelerations, switch_times
-  use rotorcable_projection, only: project_positions, project_velocities, constraint_rank_margin
+  use rotorcable_projection, only: project_positions, project_velocities, constraint_rank_margin, &
+                                   rank_loss_message
   use rotorcable_ggl_residual, only: ida_user_data, ggl_residual, ggl_jacobian
   use rotorcable_ida_binding
   use rotorcable_joint, only: JOINT_ZY
@@ -78,7 +79,6 @@ contains
     type(error_type), intent(inout) :: error  !< status
     integer :: info
     real(dp) :: margin
-    character(len=32) :: buf
 
     vdot = 0.0_dp
     lambda = 0.0_dp
@@ -91,10 +91,7 @@ contains
     if (model%nc > 0) then
       margin = constraint_rank_margin(model, t, q)
       if (margin < RANK_TOL) then
-        write (buf, '(es9.2)') margin
-        call fatal_error(error, 'clamp B: the constraint Jacobian of the start shape has lost rank '// &
-                         '(sigma_min/sigma_max = '//trim(buf)//'): the chain is straight or taut between '// &
-                         'the clamps; move clamp B within reach or give the cable slack', key='clamp_b.position')
+        call fatal_error(error, rank_loss_message(model, t, q, margin), key='clamp_b.position')
         return
       end if
     end if

@@ -121,7 +121,7 @@ contains
     type(error_type), intent(inout) :: error  !< status
     real(dp) :: start(3), span, reach, zero(model%chain%n_coords)
     integer :: n
-    character(len=160) :: buf
+    character(len=200) :: buf
     call model_init(model)
     if (model%nc == 0) return
     n = model%chain%n_bodies
@@ -147,6 +147,12 @@ contains
       if (n < 2 .or. span > reach*(1.0_dp + 1.0e-12_dp)) then
         write (buf, '(a, g0.6, a, g0.6, a)') 'the end clamp is out of reach: the free part of the chain is ', &
           reach, ' m long but must span ', span, ' m'
+        call fatal_error(error, trim(buf), key='clamp_b.position')
+      else if (span > reach*(1.0_dp - 1.0e-9_dp)) then
+        ! At full reach the chain is a straight bar between the clamps: its axial force is not
+        ! determined (the constraint Jacobian loses rank), whatever the solver would return.
+        write (buf, '(a, g0.10, a, g0.10, a)') 'clamp B is at full reach (taut): the free part of the chain is ', &
+          reach, ' m long and must span ', span, ' m; give it slack'
         call fatal_error(error, trim(buf), key='clamp_b.position')
       end if
     end select

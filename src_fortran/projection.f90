@@ -5,9 +5,10 @@ module rotorcable_projection
   use rotorcable_model, only: model_type, positions_at, constraint_residual, constraint_jacobian, &
                               constraint_velocity
   use rotorcable_linalg, only: solve_least_norm, singular_values
+  use rotorcable_supports_clamp, only: clamp_support
   implicit none
   private
-  public :: project_positions, project_velocities, constraint_rank_margin
+  public :: project_positions, project_velocities, constraint_rank_margin, rank_loss_message
 
 contains
 
@@ -151,5 +152,43 @@ contains
     end if
     ratio = s(size(s))/s(1)
   end function constraint_rank_margin
+
+  !> Why the constraints are dependent, for the error message: clamp B's distance from the start
+  !> of the free part against the free part's length (the reach).
+  function rank_loss_message(model, t, q, margin) result(msg)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: q(:)              !< coordinates where the rank was lost
+    real(dp), intent(in) :: margin            !< sigma_min/sigma_max of G
+    character(len=:), allocatable :: msg
+    character(len=240) :: buf
+    real(dp) :: start(3), reach, span
+    integer :: n
+    write (buf, '(a, es9.2, a)') 'clamp B: the constraint Jacobian has lost rank (sigma_min/sigma_max = ', margin, ')'
+    msg = trim(buf)
+    n = model%chain%n_bodies
+    call positions_at(model, t, q)
+    select type (tip => model%tip)
+    type is (clamp_support)
+      start = model%st%joint_point(:, 1)
+      reach = sum(model%chain%length(1:n - 1))
+      if (model%chain%locked(1)) then
+        start = model%st%joint_point(:, 2)
+        reach = reach - model%chain%length(1)
+      end if
+      span = norm2(tip%position - model%chain%length(n)*tip%rotation(:, 3) - start)
+      write (buf, '(a, f10.6, a, f10.6, a, f8.4, a)') ': the free part of the chain spans ', span, &
+        ' m of its ', reach, ' m reach (', 100.0_dp*span/max(reach, tiny(1.0_dp)), ' %)'
+      msg = msg//trim(buf)
+      if (span < reach*(1.0_dp - 1.0e-6_dp)) then
+        msg = msg//'; the cable has slack, but this shape is straight (or kinked straight) between the '// &
+              'clamps, where no small joint motion moves its end towards clamp B: start from a shape '// &
+              'bent towards the clamp'
+        return
+      end if
+    end select
+    msg = msg//'; the chain is straight or taut between the clamps, so its shape and the clamp '// &
+          'reactions are not determined: move clamp B within reach or give the cable slack'
+  end function rank_loss_message
 
 end module rotorcable_projection

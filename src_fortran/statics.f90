@@ -5,7 +5,7 @@ module rotorcable_statics
   use rotorcable_errors, only: error_type, fatal_error
   use rotorcable_model, only: model_type, eom_residual, constraint_residual, constraint_jacobian, total_energy, &
                               all_conservative
-  use rotorcable_projection, only: project_positions, constraint_rank_margin
+  use rotorcable_projection, only: project_positions, constraint_rank_margin, rank_loss_message
   use rotorcable_linalg, only: solve_least_norm, null_space, solve_spd, solve_dense
   implicit none
   private
@@ -45,25 +45,12 @@ contains
     real(dp) :: margin
     margin = constraint_rank_margin(model, t, q)
     if (margin < RANK_TOL) then
-      call rank_loss_error(model, margin, error)
+      call fatal_error(error, rank_loss_message(model, t, q, margin), key='clamp_b.position')
     else
       call fatal_error(error, 'the start shape cannot be closed onto clamp B (projection failed); '// &
                        'start from a shape nearer the clamp', key='clamp_b.position')
     end if
   end subroutine closure_failure
-
-  !> The error for a rank-deficient constraint Jacobian.
-  subroutine rank_loss_error(model, margin, error)
-    type(model_type), intent(in) :: model     !< model
-    real(dp), intent(in) :: margin            !< sigma_min/sigma_max of G
-    type(error_type), intent(inout) :: error  !< status
-    character(len=160) :: buf
-    write (buf, '(a, es9.2, a, es11.4, a)') '(sigma_min/sigma_max = ', margin, '; chain length ', &
-      sum(model%chain%length), ' m)'
-    call fatal_error(error, 'clamp B: the constraint Jacobian has lost rank '//trim(buf)//': the chain '// &
-                     'is straight or taut between the clamps, so its shape and the clamp reactions are not '// &
-                     'determined; move clamp B within reach or give the cable slack', key='clamp_b.position')
-  end subroutine rank_loss_error
 
   !> Force residual f0 = -k(q, 0) (no multipliers) at rest relative to the model frame.
   subroutine rest_forces(model, t, q, lambda, f, n_eval)
@@ -258,7 +245,7 @@ contains
     end if
     if (nc > 0) then
       margin = constraint_rank_margin(model, t, q)
-      if (margin < RANK_TOL) call rank_loss_error(model, margin, error)
+      if (margin < RANK_TOL) call fatal_error(error, rank_loss_message(model, t, q, margin), key='clamp_b.position')
     end if
   end subroutine solve_static
 
