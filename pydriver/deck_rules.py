@@ -20,6 +20,8 @@ MAX_SAMPLES = 50_000_000
 
 def check(deck: Deck) -> None:
     """Apply every rule; the first violation raises."""
+    if not deck.has("case.analysis"):
+        deck.fail("case", "analysis", "is required: 'static', 'dynamic', 'modal', 'flight' or 'campbell'")
     _chain(deck)
     _joint_constants(deck)
     _clamp_b(deck)
@@ -37,6 +39,9 @@ def _one_of(deck: Deck, keys: list[str], what: str):
 
 
 def _chain(deck: Deck):
+    for key in ("gamma_deg", "beta_deg"):
+        if not deck.has(f"shape.{key}"):
+            deck.fail("shape", key, f"is required: one angle per body ({deck.n_bodies} values)")
     _one_of(deck, ["chain.total_length", "chain.body_length"], "the cable's length")
     if not deck.has("chain.diameter"):
         deck.fail("chain", "diameter", "is required (cable diameter)")
