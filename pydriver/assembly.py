@@ -18,6 +18,7 @@ import numpy as np
 
 from pydriver.core import CoreModel
 from pydriver.deckfile import Deck
+from pydriver.motions import blade_azimuth0, rotor, support_motion
 
 DEG = np.pi / 180.0
 RPM = 2.0 * np.pi / 60.0
@@ -124,17 +125,6 @@ def joint_constants(deck: Deck, b: Bodies) -> tuple:
     return c, d, rest
 
 
-def rotor(deck: Deck) -> dict | None:
-    """The rotor's speed profile and centre, or None for a still rotor."""
-    rpm = deck["loads.rotor_rpm"] if deck.has("loads.rotor_rpm") else 0.0
-    if rpm == 0.0:
-        return None
-    offset = np.asarray(deck["loads.rotor_offset"], float)
-    # rotor_offset = the deck origin relative to the rotor centre; the axis is the deck's z.
-    centre = np.array([-offset[0], -offset[1], 0.0])
-    return {"profile": "constant", "centre": centre, "params": [rpm * RPM], "hub": True, "body_couples": True}
-
-
 def build(deck: Deck) -> tuple[CoreModel, dict]:
     """Build the deck's model in the core.
 
@@ -152,8 +142,8 @@ def build(deck: Deck) -> tuple[CoreModel, dict]:
     core = CoreModel(deck.name, b.lengths, b.radii, b.masses, deck["chain.joint"], b.locked,
                      np.vstack([gamma, beta]))
     base_rotation = rot_z(deck["clamp_a.gamma_deg"] * DEG) @ rot_y(deck["clamp_a.beta_deg"] * DEG)
-    core.set_base(np.zeros(3), base_rotation)
-    core.finish()                                  # kinematics for the start shape
+    core.set_base(np.zeros(3), base_rotation)      # fixed for now: kinematics of the start shape
+    core.finish()
     q0, v0 = core.thesis_coordinates(gamma, beta, np.asarray(deck["shape.gamma_rate_deg"]) * DEG,
                                      np.asarray(deck["shape.beta_rate_deg"]) * DEG)
     first_coord = _first_coords(b.locked, {"zy": 2, "xy": 2, "xyz": 3}[deck["chain.joint"]])
@@ -174,16 +164,23 @@ def build(deck: Deck) -> tuple[CoreModel, dict]:
     rot = rotor(deck)
     if rot is not None:
         core.set_rotor(rot["profile"], rot["centre"], rot["params"], rot["hub"], rot["body_couples"])
+    clamp = None
     if deck["clamp_b.active"]:
         if deck["clamp_b.from_start"]:
             shape = core.shape(q0)
-            position, rotation = shape["joints"][-1], shape["last_rotation"]
+            clamp = (shape["joints"][-1], shape["last_rotation"])
         else:
-            position = np.asarray(deck["clamp_b.position"], float)
-            rotation = rot_z(deck["clamp_b.gamma_deg"] * DEG) @ rot_y(deck["clamp_b.beta_deg"] * DEG)
-        core.set_clamp(position, rotation)
+            clamp = (np.asarray(deck["clamp_b.position"], float),
+                     rot_z(deck["clamp_b.gamma_deg"] * DEG) @ rot_y(deck["clamp_b.beta_deg"] * DEG))
+    b_position = clamp[0] if clamp is not None else np.zeros(3)
+    if rot is not None:
+        rot["azimuth0"] = blade_azimuth0(deck, rot, b_position)
+    motion_a = support_motion(deck, rot, "clamp_a", b_position)
+    if motion_a[0]:
+        core.set_base(np.zeros(3), base_rotation, motion_a)
+    if clamp is not None:
+        core.set_clamp(clamp[0], clamp[1], support_motion(deck, rot, "clamp_b", b_position))
     core.finish()
-    clamp = (np.asarray(position, float), np.asarray(rotation, float)) if deck["clamp_b.active"] else None
     return core, {"bodies": b, "first_coord": first_coord, "stiffness": c, "damping": d, "rest": rest,
                   "base_rotation": base_rotation,
                   "clamp": clamp, "rotor": rot, "q0": q0, "v0": v0}

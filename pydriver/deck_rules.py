@@ -26,6 +26,8 @@ def check(deck: Deck) -> None:
     _joint_constants(deck)
     _clamp_b(deck)
     _loads(deck)
+    _rotor(deck)
+    _blade(deck)
     _output_times(deck)
 
 
@@ -123,6 +125,62 @@ def _loads(deck: Deck):
                                               f"the end of the run (t_end = {deck['solver.t_end']:g} s)")
     if deck["clamp_b.active"] and np.any(deck["loads.tip_force"] != 0.0):
         deck.fail("loads", "tip_force", "a tip force needs a free end (clamp_b active = .false.)")
+
+
+def _rotor(deck: Deck):
+    if "rotor" not in deck.groups:
+        if deck["case.analysis"] in ("flight", "campbell") and not (deck.has("loads.rotor_rpm")
+                                                                     and deck["loads.rotor_rpm"] > 0):
+            deck.fail("rotor", "rpm", f"analysis '{deck['case.analysis']}' needs a turning rotor (&rotor rpm)")
+        return
+    if deck.has("loads.rotor_rpm"):
+        deck.fail("loads", "rotor_rpm", "give the rotor speed once: &rotor rpm (&loads rotor_rpm is the "
+                                        "older spelling of the same)")
+    profile = deck["rotor.profile"]
+    if profile in ("constant", "runup") and not deck.has("rotor.rpm"):
+        deck.fail("rotor", "rpm", f"is required with profile = '{profile}'")
+    if profile == "runup" and not deck.has("rotor.runup_time"):
+        deck.fail("rotor", "runup_time", "is required with profile = 'runup'")
+    if profile == "table":
+        t, w = deck["rotor.table_t"], deck["rotor.table_rpm"]
+        if t is None or w is None or len(t) != len(w) or len(t) < 3:
+            deck.fail("rotor", "table_rpm", "a speed table needs table_t and table_rpm of the same length, "
+                                            "at least 3 points")
+        if t[0] != 0.0 or np.any(np.diff(t) <= 0.0):
+            deck.fail("rotor", "table_t", "must start at 0 and increase strictly")
+    if deck["case.analysis"] == "flight" and (profile != "constant" or deck["rotor.rpm"] <= 0.0):
+        deck.fail("rotor", "profile", "a flight run (periodic steady state) needs a constant rotor speed > 0")
+
+
+def _blade(deck: Deck):
+    moving = [g for g in ("clamp_a", "clamp_b") if deck[f"{g}.moves_with"] == "blade"]
+    if "blade" not in deck.groups:
+        if moving:
+            deck.fail(moving[0], "moves_with", "a support on the blade needs the blade's motion (&blade)")
+        return
+    if not moving:
+        deck.fail("blade", "flap_hinge", "no support moves with the blade: set &clamp_b moves_with = 'blade'")
+    if not deck.has("blade.flap_hinge"):
+        deck.fail("blade", "flap_hinge", "is required (a point on the flap hinge axis)")
+    for key in ("flap_axis", "lag_axis", "pitch_axis"):
+        if not np.linalg.norm(deck[f"blade.{key}"]) > 0.0:
+            deck.fail("blade", key, "must not be the zero vector")
+    if deck["blade.motion"] == "table":
+        t = deck["blade.table_t"]
+        if t is None or len(t) < 3 or np.any(np.diff(t) <= 0.0):
+            deck.fail("blade", "table_t", "an angle table needs at least 3 increasing times")
+        for key in ("table_flap_deg", "table_lag_deg", "table_pitch_deg"):
+            if deck[f"blade.{key}"] is not None and len(deck[f"blade.{key}"]) != len(t):
+                deck.fail("blade", key, f"needs {len(t)} values (one per table time)")
+    elif deck["case.analysis"] == "flight" and deck["blade.lag_extra_deg"] != 0.0:
+        deck.fail("blade", "lag_extra_deg", "an oscillation at its own frequency makes the motion non-periodic "
+                                            "in the azimuth: a flight run cannot reach a periodic steady "
+                                            "state with it (use a dynamic run)")
+    for g in moving:
+        if deck["case.analysis"] == "flight" and deck["blade.motion"] == "table":
+            deck.fail("blade", "motion", "a flight run needs a periodic blade motion (Fourier series)")
+        if g == "clamp_b" and not deck["clamp_b.active"]:
+            deck.fail("clamp_b", "moves_with", "clamp B is not active")
 
 
 def _output_times(deck: Deck):

@@ -301,7 +301,9 @@ def normalize(key: Key, raw, start, n: int, deck: str):
                 "joint": f"{length} values (one per joint)"}[key.shape]
         fail(f"needs {what}, got {offset + len(items)}")
     base = default_value(key, n)
-    out = [None] * length if base is None else list(base)
+    out = [None] * length
+    if base is not None:                           # a list's default may be shorter than the list
+        out[:min(length, len(base))] = list(base)[:length]
     for i, item in enumerate(items):
         if item is not None:                         # a null value keeps the element's default
             out[offset + i] = _element(key, item, fail)

@@ -12,6 +12,8 @@ import os
 import tempfile
 from pathlib import Path
 
+import numpy as np
+
 
 def _plt():
     import matplotlib
@@ -39,19 +41,98 @@ def _save_replace(fig, path: Path):
     os.replace(tmp, path)
 
 
-def _shape_axes(fig, tables: dict):
-    """3D view and two side views (y-z, x-y) of CM polylines, one line per label."""
-    ax = fig.add_subplot(1, 3, 1, projection="3d")
+def _polyline(t: dict):
+    """The cable through its bodies' end points (joint points and the tip), or through the CMs
+    for a table written before joint points were."""
+    if "joint_x_m" in t:
+        pts = np.column_stack([t["joint_x_m"], t["joint_y_m"], t["joint_z_m"]])
+        if "tip_m" in t:
+            pts = np.vstack([pts, t["tip_m"]])
+        return pts
+    return np.column_stack([t["x_m"], t["y_m"], t["z_m"]])
+
+
+def _shape_axes(fig, tables: dict, clamped_b: bool = True):
+    """3D view and two side views (y-z, x-y) of the cable through its bodies' end points, one
+    line per label; clamp A (square) and clamp B (triangle) marked."""
+    grid = fig.add_gridspec(1, 3, width_ratios=[1.25, 1, 1], wspace=0.35, left=0.03, right=0.86, bottom=0.12,
+                            top=0.88)
+    ax = fig.add_subplot(grid[0], projection="3d")
     for label, t in tables.items():
-        ax.plot(t["x_m"], t["y_m"], t["z_m"], "o-", ms=3, label=label)
-    ax.set_xlabel("x [m]"); ax.set_ylabel("y [m]"); ax.set_zlabel("z [m]")
-    for k, (a, b) in enumerate((("y_m", "z_m"), ("x_m", "y_m"))):
-        ax2 = fig.add_subplot(1, 3, k + 2)
+        p = _polyline(t)
+        line, = ax.plot(p[:, 0], p[:, 1], p[:, 2], "o-", ms=2.5, label=label)
+        ax.plot(*p[0], "s", color=line.get_color(), ms=7)
+        if clamped_b:
+            ax.plot(*p[-1], "^", color=line.get_color(), ms=7)
+    ax.set_xlabel("x [m]", labelpad=8); ax.set_ylabel("y [m]", labelpad=8); ax.set_zlabel("z [m]", labelpad=10)
+    ax.set_box_aspect(None, zoom=0.8)                # room for the axis labels inside the panel
+    from matplotlib.ticker import MaxNLocator
+    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+        axis.set_major_locator(MaxNLocator(4))       # 3-D tick labels crowd otherwise
+    ax.tick_params(labelsize=7)
+    for k, (a, b) in enumerate(((1, 2), (0, 1))):
+        ax2 = fig.add_subplot(grid[k + 1])
         for label, t in tables.items():
-            ax2.plot(t[a], t[b], "o-", ms=3, label=label)
-        ax2.set_xlabel(a.replace("_m", " [m]")); ax2.set_ylabel(b.replace("_m", " [m]"))
+            p = _polyline(t)
+            line, = ax2.plot(p[:, a], p[:, b], "o-", ms=2.5, label=label)
+            ax2.plot(p[0, a], p[0, b], "s", color=line.get_color(), ms=7)
+            if clamped_b:
+                ax2.plot(p[-1, a], p[-1, b], "^", color=line.get_color(), ms=7)
+        ax2.set_xlabel("xyz"[a] + " [m]"); ax2.set_ylabel("xyz"[b] + " [m]")
         ax2.set_aspect("equal", adjustable="datalim"); ax2.grid(True)
-    ax2.legend(fontsize=7)
+    ax2.plot([], [], "ks", label="clamp A")
+    if clamped_b:
+        ax2.plot([], [], "k^", label="clamp B")
+    ax2.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
+
+
+def _with_tip(result) -> dict:
+    t = dict(result.table)
+    if "tip_m" in result.summary:
+        t["tip_m"] = np.asarray(result.summary["tip_m"])
+    return t
+
+
+def plot_flight(result, out: Path):
+    """Forward flight: joint bending moments and clamp loads against the blade azimuth over the
+    last revolution, and the cable at 8 azimuths."""
+    plt = _plt()
+    s, ts = result.summary, result.timeseries
+    az = ts["azimuth_deg"]
+    order = np.argsort(az)
+    nb = s["n_bodies"]
+    fig, ax = plt.subplots(3, 1, figsize=(8, 9), sharex=True, constrained_layout=True)
+    cmap = plt.get_cmap("viridis")
+    for j in range(nb):
+        ax[0].plot(az[order], ts[f"bending{j + 1}_Nm"][order], color=cmap(j / max(nb - 1, 1)),
+                   label=f"joint {j + 1}" if j in (0, nb // 2, nb - 1) else None)
+    ax[0].set_ylabel("bending moment [Nm]"); ax[0].legend(fontsize=7, ncol=3)
+    for side in "AB":
+        if f"F{side}_x" not in ts:
+            continue
+        f = np.sqrt(sum(ts[f"F{side}_{c}"]**2 for c in "xyz"))
+        m = np.sqrt(sum(ts[f"M{side}_{c}"]**2 for c in "xyz"))
+        ax[1].plot(az[order], f[order], label=f"|F_{side}|")
+        ax[2].plot(az[order], m[order], label=f"|M_{side}|")
+    ax[1].set_ylabel("clamp force [N]"); ax[2].set_ylabel("clamp moment [Nm]")
+    ax[2].set_xlabel("blade azimuth [deg] (0 = downstream)")
+    for a in ax:
+        a.grid(True)
+        a.set_xlim(0, 360)
+    ax[1].legend(fontsize=8); ax[2].legend(fontsize=8)
+    fig.suptitle(f"{s['case']}: last revolution ({s['revolutions']} to periodic)")
+    yield _save(fig, out, "loads_vs_azimuth.png")
+    joints = result.extra["shape_joints"]                       # (3, n + 1, samples)
+    fig = plt.figure(figsize=(15, 5))
+    tables = {}
+    for target in np.arange(0, 360, 45):
+        k = int(np.argmin(np.abs(((az - target) + 180) % 360 - 180)))
+        p = joints[:, :, k]
+        tables[f"{target:.0f} deg"] = {"joint_x_m": p[0, :-1], "joint_y_m": p[1, :-1], "joint_z_m": p[2, :-1],
+                                       "tip_m": p[:, -1]}
+    _shape_axes(fig, tables)
+    fig.suptitle(f"{s['case']}: the cable at 8 blade azimuths (hub frame)")
+    yield _save(fig, out, "shapes_vs_azimuth.png")
 
 
 def plot_result(result, out: Path) -> list[str]:
@@ -63,10 +144,13 @@ def _plots(result, out: Path):
     plt = _plt()
     s = result.summary
     if result.table is not None:
-        fig = plt.figure(figsize=(12, 4))
-        _shape_axes(fig, {s["case"]: result.table})
-        fig.suptitle(f"{s['case']}: centres of mass")
+        fig = plt.figure(figsize=(15, 5))
+        _shape_axes(fig, {s["case"]: _with_tip(result)}, clamped_b=s["n_constraints"] > 0)
+        fig.suptitle(f"{s['case']}: the cable through its bodies' end points")
         yield _save(fig, out, "shape.png")
+    if s["analysis"] == "flight":
+        yield from plot_flight(result, out)
+        return
     if result.timeseries is not None:
         ts = result.timeseries
         fig, ax = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
@@ -111,7 +195,7 @@ def _plots(result, out: Path):
 def plot_shapes(tables: dict, path: Path, title: str):
     """Rest vs hover (or any set of) shapes in 3D and two side views, to ``path``."""
     plt = _plt()
-    fig = plt.figure(figsize=(13, 4.5))
+    fig = plt.figure(figsize=(15, 5))
     _shape_axes(fig, tables)
     fig.suptitle(title)
     _save_replace(fig, path)

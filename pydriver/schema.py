@@ -137,6 +137,48 @@ def _keys() -> list[Key]:
     add(Key("loads", "pulse_start", "real", unit="s", default=0.0, **NONNEG, doc="pulse start time"))
     add(Key("loads", "pulse_end", "real", unit="s", default=0.0, **NONNEG, doc="pulse end time"))
     add(Key("loads", "tip_force", "real", "vec3", "N", (0.0, 0.0, 0.0), "constant force at a free tip"))
+    # &rotor -------------------------------------------------------------------------------
+    add(Key("rotor", "rpm", "real", unit="rpm", **NONNEG,
+            doc="rotor speed (constant profile), or the speed the run-up ends at"))
+    add(Key("rotor", "profile", "str", default="constant", choices=("constant", "runup", "table"),
+            doc="speed profile: constant, a smooth run-up from rpm_start to rpm, or a table"))
+    add(Key("rotor", "rpm_start", "real", unit="rpm", default=0.0, **NONNEG, doc="run-up: speed before it"))
+    add(Key("rotor", "runup_start", "real", unit="s", default=0.0, **NONNEG, doc="run-up: start time"))
+    add(Key("rotor", "runup_time", "real", unit="s", **POS,
+            doc="run-up: duration (Omega-dot = 0 at both ends: s(tau) = tau - sin(2 pi tau)/(2 pi))"))
+    add(Key("rotor", "table_t", "real", "list", "s", **NONNEG, doc="speed table: times (from 0, increasing)"))
+    add(Key("rotor", "table_rpm", "real", "list", "rpm", **NONNEG, doc="speed table: speeds (cubic spline, held after)"))
+    add(Key("rotor", "centre", "real", "vec3", "m",
+            doc="rotor centre in the deck frame (axis = deck z); default: -rotor_offset of &loads"))
+    add(Key("rotor", "frame", "str", default="hub", choices=("hub", "inertial"),
+            doc="equations in the hub frame turning with the rotor, or in the inertial frame with the "
+                "supports carried round"))
+    add(Key("rotor", "body_couples", "bool", default=True,
+            doc="the bodies' rotational inertia takes part in the frame terms (.false.: the thesis's "
+                "point-mass centrifugal field)"))
+    # &blade: the blade-side support's motion -------------------------------------------------
+    add(Key("blade", "flap_hinge", "real", "vec3", "m", doc="a point on the flap hinge axis (deck frame, t = 0)"))
+    add(Key("blade", "flap_axis", "real", "vec3", default=(1.0, 0.0, 0.0), doc="flap hinge axis (positive flap up)"))
+    add(Key("blade", "lag_hinge", "real", "vec3", "m", doc="a point on the lead-lag hinge axis (default: the flap hinge)"))
+    add(Key("blade", "lag_axis", "real", "vec3", default=(0.0, 0.0, 1.0), doc="lead-lag hinge axis"))
+    add(Key("blade", "pitch_hinge", "real", "vec3", "m", doc="a point on the pitch (feathering) axis (default: the flap hinge)"))
+    add(Key("blade", "pitch_axis", "real", "vec3", default=(0.0, 1.0, 0.0), doc="pitch axis (along the blade)"))
+    add(Key("blade", "motion", "str", default="fourier", choices=("fourier", "table"),
+            doc="hinge angles as Fourier series in the blade azimuth, or time tables"))
+    add(Key("blade", "flap_deg", "real", "list", "deg", default=0.0,
+            doc="flap: a0, a1c, a1s, a2c, a2s, ... (coning and harmonics in the blade azimuth)"))
+    add(Key("blade", "lag_deg", "real", "list", "deg", default=0.0, doc="lead-lag: a0, a1c, a1s, ..."))
+    add(Key("blade", "pitch_deg", "real", "list", "deg", default=0.0, doc="pitch: a0, a1c, a1s, ..."))
+    add(Key("blade", "lag_extra_deg", "real", unit="deg", default=0.0,
+            doc="an extra lead-lag oscillation at its own frequency: amplitude"))
+    add(Key("blade", "lag_extra_hz", "real", unit="Hz", default=0.0, **NONNEG, doc="its frequency"))
+    add(Key("blade", "lag_extra_phase_deg", "real", unit="deg", default=0.0, doc="its phase"))
+    add(Key("blade", "table_t", "real", "list", "s", doc="angle tables: times"))
+    add(Key("blade", "table_flap_deg", "real", "list", "deg", doc="flap angle at the table times"))
+    add(Key("blade", "table_lag_deg", "real", "list", "deg", doc="lead-lag angle at the table times"))
+    add(Key("blade", "table_pitch_deg", "real", "list", "deg", doc="pitch angle at the table times"))
+    add(Key("blade", "azimuth0_deg", "real", unit="deg",
+            doc="blade azimuth at t = 0 (0 = downstream, in the sense of rotation); default: that of clamp B"))
     # &drag --------------------------------------------------------------------------------
     add(Key("drag", "air_density", "real", unit="kg/m^3", default=1.225, **POS,
             doc="air density (ISA sea level by default)"))
@@ -169,6 +211,10 @@ def _keys() -> list[Key]:
             doc="steps over which the finite-difference part of the Jacobian is kept"))
     add(Key("solver", "vector_kernels", "str", default="compiled", choices=("compiled", "sundials"),
             doc="IDA's N_Vector operations: compiled loops or the library's own"))
+    add(Key("solver", "periodic_tol", "real", unit="m", default=1.0e-6, **POS,
+            doc="flight: two successive revolutions differ by less than this (max CM distance)"))
+    add(Key("solver", "max_revolutions", "int", default=60, low=2, doc="flight: revolution budget"))
+    add(Key("solver", "samples_per_rev", "int", default=360, low=8, doc="flight: output samples per revolution"))
     add(Key("solver", "output_format", "str", default="auto", choices=("auto", "csv", "hdf5"),
             doc="time series file: timeseries.csv, timeseries.h5 (HDF5), or CSV up to 5e6 values, HDF5 beyond"))
     return k
@@ -191,6 +237,8 @@ GROUP_DOCS = {
     "clamp_a": "support A at the start of the chain (the deck origin); joint 1 turns relative to its frame",
     "clamp_b": "support B holding the last body",
     "loads": "gravity, rotor speed (legacy), force pulse, tip force",
+    "rotor": "the rotor: speed profile, centre, and the frame the equations are written in",
+    "blade": "the blade's flap, lead-lag and pitch motion, carried by a support that moves with the blade",
     "drag": "aerodynamic drag by the cross-flow principle",
     "solver": "time integration, statics and output settings",
 }

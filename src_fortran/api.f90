@@ -16,7 +16,7 @@ module rotorcable_api
   use rotorcable_statics, only: static_settings, static_result, solve_static
   use rotorcable_modal, only: modal_analysis
   use rotorcable_dae_integrator, only: integrator_settings, dae_session, session_start, session_advance
-  use rotorcable_sampling, only: sample_state, joint_loads, shape_of
+  use rotorcable_sampling, only: sample_state, joint_loads, shape_of, support_motion
   implicit none
   private
   public :: rc_model_new, rc_model_free, rc_model_add_load, rc_model_set_base, rc_model_set_clamp, &
@@ -334,7 +334,7 @@ contains
   !> Outputs at states (q, v) and times t: reactions, energies, constraint violation, shape,
   !> joint loads, rotor angle.
   subroutine rc_sample(handle, nt, t, nq, q, v, nb, ncd, wrenches, kinetic, potential, g_max, angles, cm, joints, &
-                       axial, shear, bending, torsion, bend_angle, psi, multipliers, stat, key, msg)
+                       axial, shear, bending, torsion, bend_angle, psi, multipliers, supports, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
     integer(c_int), intent(in) :: nt, nq, nb      !< samples, coordinates, bodies
     integer(c_int), intent(in) :: ncd             !< max(1, nc)
@@ -351,6 +351,7 @@ contains
     real(c_double), intent(out) :: bend_angle(nb, nt)   !< joint bending angles [rad]
     real(c_double), intent(out) :: psi(nt)        !< rotor angle [rad]
     real(c_double), intent(out) :: multipliers(ncd, nt)  !< lambda of eq. 3.55
+    real(c_double), intent(out) :: supports(12, nt)      !< v_A, w_A, v_B, w_B relative to the frame
     integer(c_int), intent(out) :: stat           !< status
     character(len=64), intent(out) :: key         !< input at fault
     character(len=1024), intent(out) :: msg       !< why
@@ -359,7 +360,7 @@ contains
     integer :: k, info
     wrenches = 0.0_dp; kinetic = 0.0_dp; potential = 0.0_dp; g_max = 0.0_dp; angles = 0.0_dp; cm = 0.0_dp
     joints = 0.0_dp; axial = 0.0_dp; shear = 0.0_dp; bending = 0.0_dp; torsion = 0.0_dp; bend_angle = 0.0_dp
-    psi = 0.0_dp; multipliers = 0.0_dp
+    psi = 0.0_dp; multipliers = 0.0_dp; supports = 0.0_dp
     model => model_of(handle, error)
     if (error%code == 0) then
       do k = 1, nt
@@ -372,6 +373,7 @@ contains
         end if
         call joint_loads(model, axial(:, k), shear(:, k), bending(:, k), torsion(:, k), bend_angle(:, k))
         call shape_of(model, q(:, k), angles(:, :, k), cm(:, :, k), joints(:, :, k))
+        call support_motion(model, supports(:, k))
         psi(k) = model%rs%psi
       end do
     end if

@@ -43,6 +43,8 @@ module rotorcable_model
     real(dp) :: base_rot(3, 3) = 0.0_dp       !< R_0(t)
     real(dp) :: base_pos(3) = 0.0_dp          !< P_1(t) [m]
     type(motion_seed) :: seed                 !< absolute motion of the base
+    real(dp) :: base_vel(3) = 0.0_dp          !< velocity of P_1 relative to the frame [m/s]
+    real(dp) :: base_omega(3) = 0.0_dp        !< angular velocity of the base relative to the frame
     ! Workspace:
     type(chain_state) :: st                   !< kinematic state
     real(dp), allocatable :: force(:, :)      !< (3,n) applied forces at the CMs
@@ -86,7 +88,8 @@ contains
     if (model%prepared .and. t == model%t_prepared) return
     model%rs = rotor_at(model%rotor, t)
     model%fs = frame_at(model%frame, model%rs)
-    call base_pose(model%base, t, model%rs, model%fs, model%base_rot, model%base_pos, model%seed)
+    call base_pose(model%base, t, model%rs, model%fs, model%base_rot, model%base_pos, model%seed, model%base_vel, &
+                   model%base_omega)
     if (allocated(model%tip)) call model%tip%update(t, model%rs)
     model%prepared = .true.
     model%t_prepared = t

@@ -10,9 +10,10 @@ module rotorcable_sampling
   use rotorcable_model, only: model_type, solve_accelerations, eom_residual, kinetic_energy, stored_energy
   use rotorcable_kinematics, only: joint_angles
   use rotorcable_joint, only: thesis_angles
+  use rotorcable_supports_clamp, only: clamp_support
   implicit none
   private
-  public :: sample_state, joint_loads, shape_of
+  public :: sample_state, joint_loads, shape_of, support_motion
 
 contains
 
@@ -86,5 +87,22 @@ contains
     cm = model%st%cm
     joints = model%st%joint_point
   end subroutine shape_of
+
+  !> Velocities of the supports relative to the model frame at the time last prepared: P_1 and
+  !> the base frame's rotation rate, clamp B's point and rotation rate (zero when fixed).
+  !> With the reactions they give the power the supports put into the chain.
+  subroutine support_motion(model, twists)
+    type(model_type), intent(in) :: model     !< prepared model
+    real(dp), intent(out) :: twists(12)       !< v_A, w_A, v_B, w_B [m/s, rad/s]
+    twists = 0.0_dp
+    twists(1:3) = model%base_vel
+    twists(4:6) = model%base_omega
+    if (.not. allocated(model%tip)) return
+    select type (tip => model%tip)
+    type is (clamp_support)
+      twists(7:9) = tip%lin_velocity
+      twists(10:12) = tip%omega
+    end select
+  end subroutine support_motion
 
 end module rotorcable_sampling

@@ -159,7 +159,7 @@ contains
     real(dp) :: hess(model%nq - model%nc, model%nq - model%nc), hm(model%nq - model%nc, model%nq - model%nc)
     real(dp) :: z(model%nq - model%nc), q_try(model%nq), lam_try(model%nc), f_try(model%nq)
     real(dp) :: basis_try(model%nq, model%nq - model%nc), grad_try(model%nq - model%nc), g(max(model%nc, 1))
-    real(dp) :: zero(model%nq), mu, scale_h, v_now, v_try, t, margin, floor
+    real(dp) :: zero(model%nq), mu, scale_h, v_now, v_try, t, margin, floor, rhs(model%nq - model%nc)
     logical :: accepted, converged, conservative
     character(len=96) :: buf
 
@@ -196,20 +196,42 @@ contains
       res%jacobian_evals = res%jacobian_evals + 1
       floor = 1.0e3_dp*epsilon(1.0_dp)*maxval(abs(k_tan))*max(1.0_dp, maxval(abs(q)))
       hess = matmul(transpose(basis), matmul(k_tan, basis))
-      if (conservative) hess = 0.5_dp*(hess + transpose(hess))
-      scale_h = max(maxval(abs(hess)), tiny(1.0_dp))
       accepted = .false.
+      if (conservative) then
+        hess = 0.5_dp*(hess + transpose(hess))
+        rhs = -grad
+      else
+        ! A non-conservative load: first Newton's step on the reduced residual with
+        ! backtracking on |N^T f| (quadratic near the solution however ill-conditioned), then,
+        ! if that fails, Levenberg-Marquardt on H^T H, whose steps descend |N^T f|^2 for any mu
+        ! (for an unsymmetric H, -g alone need not).
+        hm = hess
+        z = -grad
+        call solve_dense(hm, z, info)
+        if (info == 0) then
+          do cut = 0, 6
+            q_try = q + 0.5_dp**cut*matmul(basis, z)
+            if (project_positions(model, t, q_try) <= 1.0e-9_dp) then
+              call reduced_gradient(model, t, q_try, lam_try, f_try, basis_try, grad_try, res%residual_evals)
+              accepted = norm2(grad_try) <= (1.0_dp - 1.0e-4_dp*0.5_dp**cut)*norm2(grad)
+              if (accepted) exit
+            end if
+            res%line_search_cuts = res%line_search_cuts + 1
+          end do
+          if (accepted) v_try = total_energy(model, t, q_try, zero)
+        end if
+        rhs = -matmul(grad, hess)
+        hess = matmul(transpose(hess), hess)
+      end if
+      scale_h = max(maxval(abs(hess)), tiny(1.0_dp))
       do cut = 0, 60
+        if (accepted) exit
         hm = hess
         do i = 1, nf
           hm(i, i) = hm(i, i) + mu
         end do
-        z = -grad
-        if (conservative) then
-          call solve_spd(hm, z, info)
-        else
-          call solve_dense(hm, z, info)
-        end if
+        z = rhs
+        call solve_spd(hm, z, info)
         if (info == 0) then
           q_try = q + matmul(basis, z)
           if (project_positions(model, t, q_try) <= 1.0e-9_dp) then

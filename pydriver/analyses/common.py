@@ -71,8 +71,13 @@ def base_summary(model, analysis: str, wall: float) -> dict:
     c_beta = float(np.median(springs[free])) if free else 0.0
     out = {"case": model.case, "deck": model.name, "analysis": analysis, "wall_time_s": wall,
            "n_bodies": model.n_bodies, "n_coords": model.nq, "n_constraints": model.nc,
-           "c_beta_Nm_per_rad": c_beta, "frame": "hub" if d.has("loads.rotor_rpm") and d["loads.rotor_rpm"] > 0
-           else "inertial"}
+           "c_beta_Nm_per_rad": c_beta}
+    rot = model.description["rotor"]
+    out["frame"] = "hub" if rot is not None and rot["hub"] else "inertial"
+    if rot is not None:
+        out["rotor"] = {"profile": rot["profile"], "rpm_max": rot["omega_max"] * 30.0 / np.pi,
+                        "centre_m": [float(x) for x in rot["centre"]],
+                        "blade_azimuth0_deg": float(np.degrees(rot["azimuth0"]))}
     if d.has("cable.ei"):
         out["cable"] = {k: float(d[f"cable.{k}"]) for k in ("ei", "gj", "mass_per_length", "damping_time")
                         if d[f"cable.{k}"] is not None}

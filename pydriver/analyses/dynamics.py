@@ -35,8 +35,8 @@ def column_names(model) -> list[str]:
     """The time-series columns of a dynamic run of this model."""
     nb = model.n_bodies
     names = ["t"]
-    if model.deck.has("loads.rotor_rpm") and model.deck["loads.rotor_rpm"] > 0:
-        names.append("psi_deg")
+    if model.description["rotor"] is not None:
+        names += ["psi_deg", "azimuth_deg"]
     names += [f"{c}{j + 1}" for j in range(nb) for c in "xyz"]
     names += [f"{a}{j + 1}_deg" for j in range(nb) for a in ("gamma", "beta")]
     names += REACTION_NAMES if model.nc > 0 else REACTION_NAMES[:6]
@@ -51,8 +51,10 @@ def chunk_columns(model, t, sample) -> dict:
     """One chunk's time-series columns from the core's samples."""
     nb = model.n_bodies
     cols = {"t": np.asarray(t, float)}
-    if model.deck.has("loads.rotor_rpm") and model.deck["loads.rotor_rpm"] > 0:
+    rot = model.description["rotor"]
+    if rot is not None:
         cols["psi_deg"] = np.mod(sample["psi"] * RAD2DEG, 360.0)
+        cols["azimuth_deg"] = np.mod((sample["psi"] + rot["azimuth0"]) * RAD2DEG, 360.0)
     for j in range(nb):
         for c, name in enumerate("xyz"):
             cols[f"{name}{j + 1}"] = sample["cm"][c, j]

@@ -27,7 +27,7 @@ module rotorcable_supports_base
 contains
 
   !> Pose of the base at time t and the seed of the forward recursion.
-  subroutine base_pose(base, t, rs, fs, rotation, position, seed)
+  subroutine base_pose(base, t, rs, fs, rotation, position, seed, velocity_rel, omega_rel)
     type(base_support), intent(in) :: base    !< support A
     real(dp), intent(in) :: t                 !< time [s]
     type(rotor_state), intent(in) :: rs       !< rotor state
@@ -35,6 +35,8 @@ contains
     real(dp), intent(out) :: rotation(3, 3)   !< R_0(t)
     real(dp), intent(out) :: position(3)      !< P_1(t) [m]
     type(motion_seed), intent(out) :: seed    !< absolute motion of the base
+    real(dp), intent(out), optional :: velocity_rel(3)  !< velocity of P_1 relative to the frame [m/s]
+    real(dp), intent(out), optional :: omega_rel(3)     !< angular velocity relative to the frame [rad/s]
     type(motion_state) :: ms
     real(dp) :: v_rel(3), a_rel(3), w_rel(3), al_rel(3), r(3)
     rotation = base%rotation
@@ -47,6 +49,8 @@ contains
       w_rel = ms%omega
       al_rel = ms%omega_dot
     end if
+    if (present(velocity_rel)) velocity_rel = v_rel
+    if (present(omega_rel)) omega_rel = w_rel
     seed%omega = w_rel
     seed%alpha = al_rel
     seed%vel = v_rel

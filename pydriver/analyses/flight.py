@@ -1,0 +1,90 @@
+"""Forward flight: integrate whole rotor revolutions until the motion is periodic (issue 12).
+
+The run starts at rest relative to the hub in the equilibrium of the loads at t = 0 (the
+quasi-static shape with the blade at its start azimuth and the stream on it) and integrates
+one revolution T = 2 pi / Omega at a time.  The motion is periodic when two successive
+revolutions differ by less than ``&solver periodic_tol`` (the largest distance between the
+bodies' centres of mass at the same azimuth); the last revolution is reported (time series
+with the azimuth, joint loads, reactions), and the number of revolutions it took.  A spent
+budget (``max_revolutions``) is an error that says how far the motion was from periodic.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from pydriver.analyses.common import REACTION_NAMES, base_summary, reactions
+from pydriver.analyses.dynamics import chunk_columns
+from pydriver.analyses.statics import equilibrium
+from pydriver.errors import RunError
+from pydriver.output import TimeseriesWriter
+from pydriver.result import Result
+
+
+def _peaks(model, ts: dict) -> dict:
+    """The largest loads of the revolution: where along the cable and how large."""
+    nb = model.n_bodies
+    out = {}
+    for qty, unit in (("bending", "Nm"), ("axial", "N"), ("torsion", "Nm"), ("strain", "")):
+        cols = [f"{qty}{j + 1}_{unit}" if unit else f"{qty}{j + 1}" for j in range(nb)]
+        data = np.column_stack([ts[c] for c in cols])
+        k = np.unravel_index(np.argmax(np.abs(data)), data.shape)
+        out[qty] = {"max_abs": float(np.abs(data[k])), "joint": int(k[1]) + 1,
+                    "azimuth_deg": float(ts["azimuth_deg"][k[0]]),
+                    "range_per_joint": [float(x) for x in np.ptp(data, axis=0)]}
+    for name in REACTION_NAMES[:12 if model.nc else 6]:
+        out[name] = {"min": float(np.min(ts[name])), "max": float(np.max(ts[name]))}
+    return out
+
+
+def flight_analysis(model, run_dir=None) -> Result:
+    """Revolutions to a periodic steady state; the last one in detail."""
+    t_wall = time.perf_counter()
+    s = model.deck.values["solver"]
+    rot = model.description["rotor"]
+    period = 2.0 * np.pi / rot["params"][0]
+    spr, tol = int(s["samples_per_rev"]), float(s["periodic_tol"])
+    q0, _, _ = equilibrium(model, t=0.0)
+    session = model.core.start(model.solver_settings(), 0.0, q0, np.zeros_like(q0))
+    history, prev_cm = [], None
+    q_last = v_last = None
+    try:
+        q_start, v_start = session.q0[:, None], session.v0[:, None]
+        for rev in range(int(s["max_revolutions"])):
+            t = period * (rev + np.arange(1, spr + 1) / spr)
+            q, v = session.advance(t)
+            cm = np.stack([model.core.shape(q[:, k], t[k])["cm"] for k in range(spr)])
+            if prev_cm is not None:
+                history.append(float(np.max(np.abs(cm - prev_cm))))
+                if history[-1] < tol:
+                    q_last = np.column_stack([q_start, q])
+                    v_last = np.column_stack([v_start, v])
+                    t_last = np.concatenate([[period * rev], t])
+                    break
+            prev_cm = cm
+            q_start, v_start = q[:, -1:], v[:, -1:]
+    finally:
+        session.close()
+    if q_last is None:
+        last = f"{history[-1]:.3g} m" if history else "not measured"
+        raise RunError(f"deck '{model.name}': no periodic steady state within {s['max_revolutions']} revolutions "
+                       f"(two successive revolutions still differ by {last} > periodic_tol = {tol:g} m); "
+                       "more revolutions (max_revolutions), more damping, or a looser periodic_tol")
+    sample = model.core.sample(t_last, q_last, v_last)
+    ts = chunk_columns(model, t_last, sample)
+    if run_dir is not None:
+        writer = TimeseriesWriter(run_dir.path("timeseries.csv"), list(ts), "csv")
+        writer.write(ts)
+        writer.close()
+    summary = base_summary(model, "flight", time.perf_counter() - t_wall)
+    w_end = [float(ts[n][-1]) if n in ts else 0.0 for n in REACTION_NAMES]
+    summary.update(solver=dict(session.stats), revolutions=len(history) + 1, period_s=period,
+                   periodic_difference_m=history, periodic_tol_m=tol,
+                   forward_speed_m_per_s=float(model.deck["drag.forward_speed"]) if "drag" in model.deck.groups
+                   else 0.0,
+                   max_constraint_violation_m=float(np.max(ts["g_max_m"])) if model.nc else 0.0,
+                   reactions=reactions(w_end, model.nc > 0), peaks=_peaks(model, ts),
+                   n_samples=int(len(t_last)))
+    return Result(summary=summary, timeseries=ts, extra={"q": q_last.T, "shape_joints": sample["joints"]})

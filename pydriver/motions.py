@@ -1,0 +1,97 @@
+"""The rotor and the prescribed motions of the supports, from the deck to the core's flat
+description (src_fortran/motion/builder.f90): speed profile, frame, and for each support the
+hinges that move it (the rotor's own axis for a support carried round in the inertial frame;
+the blade's flap, lead-lag and pitch hinges for a support on the blade).
+
+Conventions (docs/model.md, "Rotor and blade motion"): the rotor turns about the deck's z axis
+through its centre, counter-clockwise seen from above (Omega > 0), the hub frame coincides with
+the inertial frame at t = 0, the helicopter flies along +x (the free stream is -V e_x).  The
+blade azimuth psi_b is measured from downstream (-x) in the sense of rotation: psi_b = psi(t) +
+azimuth_0, with azimuth_0 that of clamp B at t = 0 unless the deck gives it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pydriver.deckfile import Deck
+
+DEG = np.pi / 180.0
+RPM = 2.0 * np.pi / 60.0
+ANGLE_CONSTANT, ANGLE_FOURIER, ANGLE_TABLE, ANGLE_ROTOR = 0, 1, 2, 3
+
+
+def rotor(deck: Deck) -> dict | None:
+    """Speed profile, centre and frame of the deck's rotor; None for a still rotor."""
+    offset = np.asarray(deck["loads.rotor_offset"], float)
+    legacy_centre = np.array([-offset[0], -offset[1], 0.0])      # offset = deck origin - rotor centre
+    if "rotor" not in deck.groups:
+        rpm = deck["loads.rotor_rpm"] if deck.has("loads.rotor_rpm") else 0.0
+        if rpm == 0.0:
+            return None
+        return {"profile": "constant", "centre": legacy_centre, "params": [rpm * RPM], "hub": True,
+                "body_couples": True, "omega_max": rpm * RPM}
+    r = deck.values["rotor"]
+    centre = np.asarray(r["centre"], float) if deck.has("rotor.centre") else legacy_centre
+    if r["profile"] == "constant":
+        params = [r["rpm"] * RPM]
+        omega_max = params[0]
+    elif r["profile"] == "runup":
+        params = [r["rpm_start"] * RPM, r["rpm"] * RPM, r["runup_start"], r["runup_time"]]
+        omega_max = max(params[:2])
+    else:
+        params = list(r["table_t"]) + [x * RPM for x in r["table_rpm"]]
+        omega_max = max(r["table_rpm"]) * RPM
+    return {"profile": r["profile"], "centre": centre, "params": params, "hub": r["frame"] == "hub",
+            "body_couples": bool(r["body_couples"]), "omega_max": omega_max}
+
+
+def blade_azimuth0(deck: Deck, rot: dict, clamp_position) -> float:
+    """Blade azimuth at t = 0 [rad]: the deck's, or that of clamp B about the rotor axis."""
+    if deck.has("blade.azimuth0_deg"):
+        return deck["blade.azimuth0_deg"] * DEG
+    u = np.asarray(clamp_position, float) - rot["centre"]
+    return float(np.mod(np.arctan2(u[1], u[0]) - np.pi, 2.0 * np.pi))
+
+
+def _hinges_flat(hinges: list) -> tuple[list, list]:
+    """(ints, reals) of a list of (axis, point, kind, params) in the builder's layout."""
+    ints, reals = [len(hinges)], []
+    for axis, point, kind, params in hinges:
+        ints += [kind, len(params)]
+        reals += list(np.asarray(axis, float)) + list(np.asarray(point, float)) + list(params)
+    return ints, reals
+
+
+def blade_hinges(deck: Deck, azimuth0: float) -> list:
+    """The blade's flap, lead-lag and pitch hinges, outermost first (flap carries the others)."""
+    b = deck.values["blade"]
+    flap_point = np.asarray(b["flap_hinge"], float)
+    lag_point = np.asarray(b["lag_hinge"], float) if deck.has("blade.lag_hinge") else flap_point
+    pitch_point = np.asarray(b["pitch_hinge"], float) if deck.has("blade.pitch_hinge") else flap_point
+    out = []
+    for name, axis, point in (("flap", b["flap_axis"], flap_point), ("lag", b["lag_axis"], lag_point),
+                              ("pitch", b["pitch_axis"], pitch_point)):
+        if b["motion"] == "table":
+            values = b[f"table_{name}_deg"]
+            values = np.zeros(len(b["table_t"])) if values is None else np.asarray(values, float)
+            out.append((axis, point, ANGLE_TABLE, list(b["table_t"]) + list(values * DEG)))
+        else:
+            extra = [0.0, 0.0, 0.0]
+            if name == "lag":
+                extra = [b["lag_extra_deg"] * DEG, 2.0 * np.pi * b["lag_extra_hz"], b["lag_extra_phase_deg"] * DEG]
+            coefficients = list(np.asarray(b[f"{name}_deg"], float) * DEG)
+            out.append((axis, point, ANGLE_FOURIER, [azimuth0] + extra + coefficients))
+    return out
+
+
+def support_motion(deck: Deck, rot: dict | None, which: str, clamp_position) -> tuple[list, list]:
+    """The hinges that move support A ('clamp_a') or B ('clamp_b'), as (ints, reals)."""
+    hinges = []
+    if rot is not None and not rot["hub"]:
+        # Inertial frame: the support is carried round by the rotor about its axis.
+        hinges.append(((0.0, 0.0, 1.0), rot["centre"], ANGLE_ROTOR, [0.0]))
+    if deck[f"{which}.moves_with"] == "blade":
+        azimuth0 = blade_azimuth0(deck, rot, clamp_position) if rot is not None else 0.0
+        hinges += blade_hinges(deck, azimuth0)
+    return _hinges_flat(hinges) if hinges else ([], [])
