@@ -3,8 +3,7 @@ and the rotor, in SI units and radians (docs/model.md states every choice made h
 
 The joint constants come either from the deck's direct ``&springs`` (the thesis's c_y, c_z) or
 from physical cable parameters ``&cable`` (EI, GJ, mass per length, structural damping), which
-hold for any n: a Hencky bar chain (Hencky 1920; Wang, Zhang, Kitipornchai, "Hencky bar-chain
-model", 2013), where a joint stands for the cable between the midpoints of its two bodies,
+hold for any n: a Hencky bar chain (H. Hencky, Der Eisenbau 11, 1920), where a joint stands for the cable between the midpoints of its two bodies,
 c_j = EI / l_j with l_j that length, so 2 EI / l for a joint on a clamp (half an element), and
 a body held by clamp B is a half element whose joint stands for the whole of it and half the
 previous body.  This converges at O(1/n^2) (tests/test_cable_parameters.py).
