@@ -166,6 +166,16 @@ class CoreModel:
         _raise(self.deck, stat, key, msg)
         return {"f_undamped_hz": fu, "f_damped_hz": fd, "zeta": zeta, "shapes": shapes}
 
+    def modal_matrices(self, q, lam, t: float = 0.0) -> dict:
+        """The linearised equations about (q, lambda) on the constraint manifold: basis N,
+        full M, and reduced M_r, K_r, D_r (D_r with the gyroscopic part of a turning frame)."""
+        lam_in = np.zeros(max(self.nc, 1))
+        lam_in[:self.nc] = lam
+        basis, m_full, m_r, k_r, d_r, stat, key, msg = _api.rc_modal_matrices(
+            self.handle, float(t), _reals(q), lam_in, self.nq - self.nc)
+        _raise(self.deck, stat, key, msg)
+        return {"basis": basis, "M": m_full, "M_r": m_r, "K_r": k_r, "D_r": d_r}
+
     def start(self, settings: dict, t0: float, q0, v0) -> "CoreSession":
         """Start a time integration; the session's q0, v0 are the consistent start."""
         real = [settings["rtol"], settings["atol"], settings["atol_multiplier"], settings["h_max"]]

@@ -135,6 +135,36 @@ def plot_flight(result, out: Path):
     yield _save(fig, out, "shapes_vs_azimuth.png")
 
 
+def plot_campbell(result, out: Path):
+    """Campbell diagram: tracked modes against rotor speed, the k/rev lines, the lead-lag band,
+    the operating range and the crossings in it."""
+    plt = _plt()
+    s = result.summary
+    rpm = np.asarray(s["rpm"])
+    f = np.asarray(s["frequencies_hz"])
+    fig, ax = plt.subplots(figsize=(9, 6), constrained_layout=True)
+    op = s["operating_rpm"]
+    ax.axvspan(op[0], op[1], color="0.93", zorder=0, label="operating range")
+    band = s["lag_band_hz"]
+    ax.axhspan(band[0], band[1], color="tab:orange", alpha=0.2, zorder=0, label="lead-lag band")
+    top = max(float(np.max(f)) * 1.05, s["harmonics"] * rpm[-1] / 60.0 * 0.3)
+    for k in range(1, s["harmonics"] + 1):
+        ax.plot(rpm, k * rpm / 60.0, "k--", lw=0.7, zorder=1)
+        x = 0.93 * min(rpm[-1], top * 60.0 / k)           # label inside the axes, on the line
+        ax.text(x, k * x / 60.0, f"{k}/rev", fontsize=8, ha="right", va="bottom",
+                bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.8))
+    for m in range(f.shape[1]):
+        ax.plot(rpm, f[:, m], "o-", ms=2.5, lw=1.3, label=f"mode {m + 1}")
+    for c in s["crossings"]:
+        ax.plot(c["rpm"], c["frequency_hz"], "rx", ms=7, mew=1.5, zorder=5)
+    ax.plot([], [], "rx", label="crossing in operating range")
+    ax.set_xlim(rpm[0], rpm[-1]); ax.set_ylim(0, top)
+    ax.set_xlabel("rotor speed [rpm]"); ax.set_ylabel("frequency [Hz]"); ax.grid(True, alpha=0.4)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    ax.set_title(f"{s['case']}: Campbell diagram (rotating frame)")
+    yield _save(fig, out, "campbell.png")
+
+
 def plot_result(result, out: Path) -> list[str]:
     """Plots of one run, written into the directory ``out``; returns their file names."""
     return list(_plots(result, out))
@@ -150,6 +180,9 @@ def _plots(result, out: Path):
         yield _save(fig, out, "shape.png")
     if s["analysis"] == "flight":
         yield from plot_flight(result, out)
+        return
+    if s["analysis"] == "campbell":
+        yield from plot_campbell(result, out)
         return
     if result.timeseries is not None:
         ts = result.timeseries

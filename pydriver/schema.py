@@ -179,6 +179,15 @@ def _keys() -> list[Key]:
     add(Key("blade", "table_pitch_deg", "real", "list", "deg", doc="pitch angle at the table times"))
     add(Key("blade", "azimuth0_deg", "real", unit="deg",
             doc="blade azimuth at t = 0 (0 = downstream, in the sense of rotation); default: that of clamp B"))
+    # &campbell ----------------------------------------------------------------------------
+    add(Key("campbell", "rpm_max", "real", unit="rpm", **POS, doc="highest rotor speed of the diagram"))
+    add(Key("campbell", "n_speeds", "int", default=26, low=2, doc="rotor speeds from 0 to rpm_max"))
+    add(Key("campbell", "operating_rpm", "real", "list", "rpm",
+            doc="operating range (min, max) in which crossings are reported; default 0 ... rpm_max"))
+    add(Key("campbell", "n_modes", "int", default=6, low=1, doc="modes tracked across speeds (lowest first)"))
+    add(Key("campbell", "harmonics", "int", default=8, low=1, doc="rotor harmonics drawn and checked: 1/rev ... N/rev"))
+    add(Key("campbell", "lag_band_hz", "real", "list", "Hz", default=(1.1, 1.4),
+            doc="lead-lag mode band drawn in the diagram (thesis chapter 6: 1/4 to 1/3 of 4.33 Hz)"))
     # &drag --------------------------------------------------------------------------------
     add(Key("drag", "air_density", "real", unit="kg/m^3", default=1.225, **POS,
             doc="air density (ISA sea level by default)"))
@@ -239,6 +248,7 @@ GROUP_DOCS = {
     "loads": "gravity, rotor speed (legacy), force pulse, tip force",
     "rotor": "the rotor: speed profile, centre, and the frame the equations are written in",
     "blade": "the blade's flap, lead-lag and pitch motion, carried by a support that moves with the blade",
+    "campbell": "Campbell diagram: rotor speeds, operating range, tracked modes, harmonics",
     "drag": "aerodynamic drag by the cross-flow principle",
     "solver": "time integration, statics and output settings",
 }

@@ -14,14 +14,14 @@ module rotorcable_api
   use rotorcable_model_builder, only: build_chain, build_load, build_base, build_clamp, build_rotor, &
                                       build_finish, thesis_to_coordinates
   use rotorcable_statics, only: static_settings, static_result, solve_static
-  use rotorcable_modal, only: modal_analysis
+  use rotorcable_modal, only: modal_analysis, reduced_matrices
   use rotorcable_dae_integrator, only: integrator_settings, dae_session, session_start, session_advance
   use rotorcable_sampling, only: sample_state, joint_loads, shape_of, support_motion
   implicit none
   private
   public :: rc_model_new, rc_model_free, rc_model_add_load, rc_model_set_base, rc_model_set_clamp, &
             rc_model_set_rotor, rc_model_finish, rc_model_sizes, rc_thesis_coordinates, rc_shape, rc_static, &
-            rc_modal, rc_dynamic_start, rc_dynamic_advance, rc_dynamic_free, rc_sample
+            rc_modal, rc_modal_matrices, rc_dynamic_start, rc_dynamic_advance, rc_dynamic_free, rc_sample
 
 contains
 
@@ -266,6 +266,29 @@ contains
                                              error)
     call report(error, stat, key, msg)
   end subroutine rc_modal
+
+  !> The linearised equations about an equilibrium (q, lambda) at time t on the constraint
+  !> manifold: null-space basis N, full M, and the reduced M_r, K_r, D_r (D_r with its
+  !> gyroscopic part), for eigen-analyses done in Python (the Campbell diagram).
+  subroutine rc_modal_matrices(handle, t, nq, q, ncd, lambda, nf, basis, m_full, m_r, k_r, d_r, stat, key, msg)
+    integer(c_int), intent(in) :: handle          !< model handle
+    real(c_double), intent(in) :: t               !< time [s]
+    integer(c_int), intent(in) :: nq, ncd, nf     !< coordinates, max(1, nc), nq - nc
+    real(c_double), intent(in) :: q(nq)           !< equilibrium [rad]
+    real(c_double), intent(in) :: lambda(ncd)     !< multipliers
+    real(c_double), intent(out) :: basis(nq, nf)  !< N
+    real(c_double), intent(out) :: m_full(nq, nq) !< M
+    real(c_double), intent(out) :: m_r(nf, nf), k_r(nf, nf), d_r(nf, nf)  !< reduced matrices
+    integer(c_int), intent(out) :: stat           !< status
+    character(len=64), intent(out) :: key         !< input at fault
+    character(len=1024), intent(out) :: msg       !< why
+    type(model_type), pointer :: model
+    type(error_type) :: error
+    basis = 0.0_dp; m_full = 0.0_dp; m_r = 0.0_dp; k_r = 0.0_dp; d_r = 0.0_dp
+    model => model_of(handle, error)
+    if (error%code == 0) call reduced_matrices(model, t, q, lambda(1:model%nc), basis, m_full, m_r, k_r, d_r)
+    call report(error, stat, key, msg)
+  end subroutine rc_modal_matrices
 
   !> Start a time integration from (q0, v0) at t0 (made consistent: returned in q, v).
   subroutine rc_dynamic_start(handle, settings_real, settings_int, t0, nq, q0, v0, session, q, v, stat, key, msg)

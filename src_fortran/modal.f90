@@ -19,7 +19,7 @@ module rotorcable_modal
   use rotorcable_fpe_guard, only: fpe_pause, fpe_resume
   implicit none
   private
-  public :: modal_analysis
+  public :: modal_analysis, reduced_matrices
 
   interface
     subroutine dsygv(itype, jobz, uplo, n, a, lda, b, ldb, w, work, lwork, info)
@@ -45,6 +45,34 @@ module rotorcable_modal
 
 contains
 
+  !> The linearised equations on the constraint manifold: an orthonormal null-space basis N of
+  !> G(q*) (LAPACK dgesvd), the full mass matrix and M_r = N^T M N, K_r = N^T K N, D_r = N^T D N.
+  !> M_r and K_r are made symmetric (round-off aside they are, for conservative loads); D_r keeps
+  !> its skew part, the gyroscopic (Coriolis) coupling of a turning frame that splits the modes
+  !> with the rotor speed.
+  subroutine reduced_matrices(model, t, q, lambda, basis, m_full, m_r, k_r, d_r)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time of the equilibrium [s]
+    real(dp), intent(in) :: q(:)              !< equilibrium coordinates [rad]
+    real(dp), intent(in) :: lambda(:)         !< equilibrium multipliers
+    real(dp), intent(out) :: basis(:, :)      !< (nq,nf) N
+    real(dp), intent(out) :: m_full(:, :)     !< (nq,nq) M
+    real(dp), intent(out) :: m_r(:, :), k_r(:, :), d_r(:, :)  !< (nf,nf) reduced matrices
+    real(dp) :: g_jac(model%nc, model%nq), k_full(model%nq, model%nq), d_full(model%nq, model%nq)
+    integer :: info, n_eval
+    if (model%nc > 0) call constraint_jacobian(model, t, q, g_jac)
+    call null_space(g_jac, basis, info)
+    call mass_matrix(model, t, q, m_full)
+    n_eval = 0
+    call tangent_stiffness(model, t, q, lambda, k_full, n_eval)
+    call damping_matrix(model, t, q, lambda, d_full)
+    m_r = matmul(transpose(basis), matmul(m_full, basis))
+    k_r = matmul(transpose(basis), matmul(k_full, basis))
+    d_r = matmul(transpose(basis), matmul(d_full, basis))
+    m_r = 0.5_dp*(m_r + transpose(m_r))
+    k_r = 0.5_dp*(k_r + transpose(k_r))
+  end subroutine reduced_matrices
+
   !> Natural frequencies, damped frequencies, damping ratios and mode shapes.
   subroutine modal_analysis(model, t, q, lambda, f_undamped, f_damped, zeta, shapes, error)
     type(model_type), intent(inout) :: model  !< model
@@ -56,29 +84,16 @@ contains
     real(dp), intent(out) :: zeta(:)          !< (nf) damping ratios
     real(dp), intent(out) :: shapes(:, :)     !< (nq,nf) mode shapes in q, mass-normalised
     type(error_type), intent(inout) :: error  !< status
-    integer :: nq, nc, nf, info, i, k, best, lwork, n_eval
-    real(dp), allocatable :: basis(:, :), m_full(:, :), k_full(:, :), d_full(:, :), g_jac(:, :)
+    integer :: nq, nc, nf, info, i, k, best, lwork
+    real(dp), allocatable :: basis(:, :), m_full(:, :)
     real(dp), allocatable :: m_r(:, :), k_r(:, :), d_r(:, :), a(:, :), b(:, :), w(:), work(:)
     real(dp), allocatable :: ar(:), ai(:), be(:), vr(:, :), vl(:, :), z(:, :)
     logical :: halting(3)
     real(dp) :: wq(1), mac, mac_best, omega, s_re, s_im, w_zero, xr(size(q)), xi(size(q)), num_r, num_i, den_x
 
     nq = model%nq; nc = model%nc; nf = nq - nc
-    allocate (basis(nq, nf), m_full(nq, nq), k_full(nq, nq), d_full(nq, nq), g_jac(nc, nq))
-    if (nc > 0) call constraint_jacobian(model, t, q, g_jac)
-    call null_space(g_jac, basis, info)
-    call mass_matrix(model, t, q, m_full)
-    n_eval = 0
-    call tangent_stiffness(model, t, q, lambda, k_full, n_eval)
-    call damping_matrix(model, t, q, lambda, d_full)
-    m_r = matmul(transpose(basis), matmul(m_full, basis))
-    k_r = matmul(transpose(basis), matmul(k_full, basis))
-    d_r = matmul(transpose(basis), matmul(d_full, basis))
-    ! M and the conservative stiffness are symmetric (round-off aside); D keeps its skew part,
-    ! the gyroscopic (Coriolis) coupling of a turning frame that splits the modes with speed.
-    m_r = 0.5_dp*(m_r + transpose(m_r))
-    k_r = 0.5_dp*(k_r + transpose(k_r))
-
+    allocate (basis(nq, nf), m_full(nq, nq), m_r(nf, nf), k_r(nf, nf), d_r(nf, nf))
+    call reduced_matrices(model, t, q, lambda, basis, m_full, m_r, k_r, d_r)
     if (.not. (all_finite(m_r) .and. all_finite(k_r) .and. all_finite(d_r))) then
       call fatal_error(error, 'modal analysis: non-finite mass, stiffness or damping matrix')
       return

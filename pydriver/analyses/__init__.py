@@ -7,7 +7,7 @@ from __future__ import annotations
 
 def run(model, run_dir=None):
     """Run the deck's analysis; time series stream into ``run_dir`` (an output.RunDirectory)."""
-    from pydriver.analyses import dynamics, flight, modal, statics
+    from pydriver.analyses import campbell, dynamics, flight, modal, statics
     analysis = model.analysis
     if analysis == "static":
         return statics.static_analysis(model)
@@ -17,4 +17,6 @@ def run(model, run_dir=None):
         return dynamics.dynamic_analysis(model, run_dir)
     if analysis == "flight":
         return flight.flight_analysis(model, run_dir)
+    if analysis == "campbell":
+        return campbell.campbell_analysis(model)
     model.deck.fail("case", "analysis", f"analysis '{analysis}' is not available in this version")

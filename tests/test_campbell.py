@@ -1,0 +1,87 @@
+"""Campbell diagram (issue 13): modes against rotor speed with the full rotating-frame terms,
+followed across speeds by the modal assurance criterion, and the crossings with the rotor
+harmonics inside the operating range."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import pydriver
+from conftest import INPUTS
+from pydriver.analyses.campbell import crossings
+from pydriver.deckfile import deck_from_text
+
+EI, MU, L = 1.0, 0.5, 1.0
+
+
+def radial_cantilever(rpm_max: float, n: int = 24, n_speeds: int = 5) -> pydriver.Model:
+    """A uniform cantilever along the rotor's radius from its centre (clamp A at the axis),
+    isotropic, no gravity: the standard rotating beam."""
+    return pydriver.Model(deck_from_text(f"""&case analysis = 'campbell' /
+&chain n_bodies = {n}, total_length = {L}, diameter = 1.0e-4, joint = 'xy', first_body = 'clamped' /
+&cable ei = {EI}, mass_per_length = {MU} /
+&clamp_a beta_deg = 90.0 /
+&shape gamma_deg = 0.0, beta_deg = 0.0 /
+&loads gravity = 0.0, 0.0, 0.0 /
+&rotor rpm = {rpm_max}, centre = 0.0, 0.0, 0.0 /
+&campbell rpm_max = {rpm_max}, n_speeds = {n_speeds}, n_modes = 4 /""", "radial.nml"))
+
+
+def test_flap_and_lag_split_by_the_rotor_speed():
+    """At rest the flap and lead-lag bending modes of an isotropic cable coincide.  Turning,
+    the flap mode stiffens with the centrifugal tension and the lag mode less by exactly the
+    in-plane centrifugal term -m Omega^2: w_flap^2 - w_lag^2 = Omega^2 for every speed (the
+    shapes are the same; Coriolis couples lag only to the axial motion an inextensible chain
+    does not have).  To 1e-6 relative (eigen-solver round-off ~1e-10)."""
+    s = pydriver.run_deck(radial_cantilever(60.0)).summary
+    rpm = np.array(s["rpm"])
+    w = 2 * np.pi * np.array(s["frequencies_hz"])
+    omega = rpm * 2 * np.pi / 60
+    assert w[0, 0] == pytest.approx(w[0, 1], rel=1e-9)
+    split = w[1:, 0]**2 - w[1:, 1]**2
+    assert np.max(np.abs(split / omega[1:]**2 - 1)) < 1e-6
+
+
+def test_southwell_coefficient_of_the_first_flap_mode():
+    """Centrifugal stiffening, w^2 = w0^2 + K Omega^2 with Southwell's K = 1.193 for the first
+    mode of a uniform cantilever from the axis (small Omega; e.g. Bramwell, Helicopter
+    Dynamics, 2001, ch. 10).  The 24-body chain at Omega = w0/10: within 1 % (discretisation
+    ~0.2 %, the Omega^4 term ~0.1 %)."""
+    w0 = 1.8751040687119611**2 * np.sqrt(EI / (MU * L**4))
+    rpm = 0.1 * w0 * 60 / (2 * np.pi)
+    s = pydriver.run_deck(radial_cantilever(rpm, n_speeds=2)).summary
+    w = 2 * np.pi * np.array(s["frequencies_hz"])
+    k = (w[1, 0]**2 - w[0, 0]**2) / (rpm * 2 * np.pi / 60)**2
+    assert k == pytest.approx(1.193, rel=0.01)
+
+
+def test_crossings_are_found_where_frequency_meets_a_harmonic():
+    """A mode at a constant 10 Hz meets k/rev at 600/k rpm; only those in the operating range
+    are reported, at the linear interpolation of the grid (exact for straight lines)."""
+    rpm = np.linspace(0, 700, 15)
+    freqs = np.full((15, 1), 10.0)
+    found = crossings(rpm, freqs, 8, (250.0, 650.0))
+    assert [(c["harmonic"], round(c["rpm"], 9)) for c in found] == [(2, 300.0), (1, 600.0)]
+
+
+def test_part2_has_no_mode_in_the_1rev_band_up_to_500_rpm():
+    """Thesis section 5.5 on the reference test [9]: no resonance between 0 and 500 rpm in the
+    0-8.33 Hz band (1/rev).  At 0 rpm the diagram's first frequency is the modal analysis's
+    damped 26.318 Hz (same linearisation: 1e-8 relative)."""
+    s = pydriver.run_deck(INPUTS / "uh60_part2_campbell.nml").summary
+    assert not s["below_1rev_in_operating_range"] and s["lowest_frequency_hz"] > 8.33
+    assert not [c for c in s["crossings"] if c["harmonic"] == 1]
+    modal = pydriver.run_deck(INPUTS / "uh60_part2_modal.nml").summary
+    assert s["frequencies_hz"][0][0] == pytest.approx(modal["damped_frequencies_hz"][0], rel=1e-8)
+    assert s["min_mac"] > 0.9
+
+
+def test_a_ten_times_softer_cable_meets_the_1rev_band():
+    """The same cable ten times softer in bending (c_y / 10): its first mode starts at
+    26.3/sqrt(10) = 8.3 Hz, at the 1/rev line of 500 rpm, and lower modes cross the rotor
+    harmonics inside the range."""
+    s = pydriver.run_deck(INPUTS / "uh60_part2_campbell_soft.nml").summary
+    assert s["frequencies_hz"][0][0] == pytest.approx(26.318 / np.sqrt(10), rel=0.02)
+    assert s["below_1rev_in_operating_range"]
+    assert len(s["crossings"]) > 5
