@@ -1,4 +1,5 @@
-"""Command line: ``python -m pydriver run DECK [--out DIR] [--plots]``, ``study NAME``,
+"""Command line (``rotorcable`` or ``python -m pydriver``): ``run DECK [--out DIR] [--plots]
+[--report] [--json]``, ``study NAME``,
 ``sweep BASE --set GROUP.KEY=VALUES ... --out DIR`` (and ``sweep-task``/``sweep-collect`` for
 Slurm arrays)."""
 
@@ -14,12 +15,15 @@ from pydriver.run import run_deck
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m pydriver", description=__doc__)
+    parser = argparse.ArgumentParser(prog="rotorcable", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run one or more decks")
     run.add_argument("decks", nargs="+", help="namelist deck(s)")
     run.add_argument("--out", help="output directory (default results/<deck stem>/; one deck only)")
     run.add_argument("--plots", action="store_true", help="also write PNG plots (matplotlib)")
+    run.add_argument("--report", action="store_true",
+                     help="also write report.html: inputs, results and plots on one self-contained page")
+    run.add_argument("--json", action="store_true", help="print summary.json instead of the readable summary")
     study = sub.add_parser("study", help="UH-60 studies: figures 5.6/5.12, 5.9 and refinement")
     study.add_argument("name", choices=["shapes", "cy-sweep", "refine"],
                        help="shapes: rest vs hover plots; cy-sweep: frequency against c_y and the "
@@ -39,7 +43,7 @@ def main(argv=None) -> int:
     for deck in args.decks:
         out = Path(args.out) if args.out else Path("results") / Path(deck).stem
         try:
-            res = run_deck(deck, out=out, plots=args.plots)
+            res = run_deck(deck, out=out, plots=args.plots, report=args.report)
         except (DeckError, RunError) as exc:
             print(f"error: {exc}", file=sys.stderr)
             status = 1
@@ -49,10 +53,11 @@ def main(argv=None) -> int:
                   f"{exc.strerror or exc}", file=sys.stderr)
             status = 1
             continue
-        s = res.summary
-        print(f"{s['case']} ({s['analysis']}): {s['wall_time_s']:.3f} s, "
-              f"max |g| = {s['max_constraint_violation_m']:.2e} m -> {out}")
-        print(json.dumps(s["reactions"]))
+        if args.json:
+            print(json.dumps(res.summary, indent=1))
+        else:
+            from pydriver.report_text import text_summary
+            print(text_summary(res.summary, res.files))
     return status
 
 

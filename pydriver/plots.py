@@ -22,6 +22,29 @@ def _plt():
     return plt
 
 
+def legibility_problems(fig) -> list[str]:
+    """What makes a figure hard to read: text that overlaps other text (labels, ticks, titles,
+    legends, annotations; by more than 1 pixel), and axes without a unit on an axis label."""
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    texts = [t for t in fig.findobj(match=lambda a: hasattr(a, "get_text") and hasattr(a, "get_window_extent"))
+             if t.get_visible() and t.get_text().strip() and t.figure is fig]
+    boxes = [(t, t.get_window_extent(renderer).expanded(1.0, 1.0).padded(-1.0)) for t in texts]
+    problems = []
+    for i in range(len(boxes)):
+        for j in range(i + 1, len(boxes)):
+            if boxes[i][1].overlaps(boxes[j][1]):
+                problems.append(f"'{boxes[i][0].get_text()}' overlaps '{boxes[j][0].get_text()}'")
+    for ax in fig.axes:
+        labels = [ax.get_xlabel(), ax.get_ylabel()] + ([ax.get_zlabel()] if hasattr(ax, "get_zlabel") else [])
+        if not ax.get_visible() or not any(labels):
+            continue                                  # colour bars, legends-only axes
+        for lab in labels:
+            if "[" not in lab:
+                problems.append(f"axis label without unit: '{lab}'")
+    return problems
+
+
 def _save(fig, out: Path, name: str) -> str:
     plt = _plt()
     fig.savefig(Path(out) / name, dpi=110)
@@ -220,7 +243,7 @@ def _plots(result, out: Path):
         k = range(1, len(s["frequencies_hz"]) + 1)
         ax.semilogy(k, s["frequencies_hz"], "o", label="undamped")
         ax.semilogy(k, [f if f > 0 else float("nan") for f in s["damped_frequencies_hz"]], "x", label="damped")
-        ax.set_xlabel("mode"); ax.set_ylabel("f [Hz]"); ax.grid(True); ax.legend()
+        ax.set_xlabel("mode [-]"); ax.set_ylabel("f [Hz]"); ax.grid(True); ax.legend()
         fig.suptitle(f"{s['case']}: natural frequencies")
         yield _save(fig, out, "frequencies.png")
 

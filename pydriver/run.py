@@ -12,7 +12,7 @@ from pydriver.output import RunDirectory, write_files
 from pydriver.result import Result, require_finite
 
 
-def run_deck(path, out=None, plots: bool = False) -> Result:
+def run_deck(path, out=None, plots: bool = False, report: bool = False) -> Result:
     """Run a deck and return its results; write files only when ``out`` is given.
 
     Parameters
@@ -25,6 +25,8 @@ def run_deck(path, out=None, plots: bool = False) -> Result:
         leaves it as it was.
     plots : bool
         Also write PNG plots (needs matplotlib).
+    report : bool
+        Also write ``report.html``, one self-contained page with the inputs, results and plots.
 
     Returns
     -------
@@ -48,6 +50,10 @@ def run_deck(path, out=None, plots: bool = False) -> Result:
         result = run(model, run_dir)
         require_finite(result, model.name)
         write_files(result, run_dir, plots)
+        if report:
+            from pydriver.report_html import html_report
+            run_dir.path("report.html").write_text(html_report(result, model), encoding="utf-8")
+            result.files["report.html"] = run_dir.out / "report.html"
         run_dir.commit()
     return result
 

@@ -74,10 +74,12 @@ def flight_analysis(model, run_dir=None) -> Result:
                        "more revolutions (max_revolutions), more damping, or a looser periodic_tol")
     sample = model.core.sample(t_last, q_last, v_last)
     ts = chunk_columns(model, t_last, sample)
+    files = {}
     if run_dir is not None:
         writer = TimeseriesWriter(run_dir.path("timeseries.csv"), list(ts), "csv")
         writer.write(ts)
         writer.close()
+        files["timeseries.csv"] = run_dir.out / "timeseries.csv"
     summary = base_summary(model, "flight", time.perf_counter() - t_wall)
     w_end = [float(ts[n][-1]) if n in ts else 0.0 for n in REACTION_NAMES]
     summary.update(solver=dict(session.stats), revolutions=len(history) + 1, period_s=period,
@@ -87,4 +89,5 @@ def flight_analysis(model, run_dir=None) -> Result:
                    max_constraint_violation_m=float(np.max(ts["g_max_m"])) if model.nc else 0.0,
                    reactions=reactions(w_end, model.nc > 0), peaks=_peaks(model, ts),
                    n_samples=int(len(t_last)))
-    return Result(summary=summary, timeseries=ts, extra={"q": q_last.T, "shape_joints": sample["joints"]})
+    return Result(summary=summary, timeseries=ts, extra={"q": q_last.T, "shape_joints": sample["joints"]},
+                  files=files)

@@ -1,0 +1,127 @@
+"""``report.html``: one self-contained page per run (plots embedded as PNG data, no outside
+files or scripts), to hand to a colleague: the inputs, what was computed, the shape, the loads,
+frequencies with their error bars, the Campbell diagram and the fatigue table."""
+
+from __future__ import annotations
+
+import base64
+import html
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from pydriver.report_text import _num, text_summary
+from pydriver.schema import lookup
+
+STYLE = """
+body { font-family: sans-serif; max-width: 1100px; margin: 2em auto; color: #222; line-height: 1.4; }
+h1 { font-size: 1.6em; border-bottom: 2px solid #446; }
+h2 { font-size: 1.25em; margin-top: 1.8em; color: #335; }
+table { border-collapse: collapse; margin: 0.6em 0; font-size: 0.9em; }
+th, td { border: 1px solid #bbb; padding: 0.25em 0.6em; text-align: right; }
+th { background: #eef; } td.l, th.l { text-align: left; }
+img { max-width: 100%; border: 1px solid #ddd; margin: 0.5em 0; }
+pre { background: #f6f6f6; padding: 0.8em; overflow-x: auto; font-size: 0.85em; }
+.warn { background: #fff3cd; border-left: 4px solid #e0a800; padding: 0.4em 0.8em; }
+"""
+
+
+def _table(header: list[str], rows: list[list], left: int = 1) -> str:
+    cls = lambda i: ' class="l"' if i < left else ""          # noqa: E731
+    out = ["<table><tr>" + "".join(f"<th{cls(i)}>{html.escape(str(h))}</th>" for i, h in enumerate(header))
+           + "</tr>"]
+    for r in rows:
+        out.append("<tr>" + "".join(f"<td{cls(i)}>{html.escape(_cell(v))}</td>" for i, v in enumerate(r)) + "</tr>")
+    return "".join(out) + "</table>"
+
+
+def _cell(v) -> str:
+    if isinstance(v, (float, np.floating)):
+        return _num(float(v))
+    if isinstance(v, np.ndarray):
+        return ", ".join(_num(float(x)) for x in v.ravel()[:12]) + (" ..." if v.size > 12 else "")
+    return str(v)
+
+
+def _inputs(model) -> str:
+    """Every key the deck sets, with its unit and meaning (from the schema)."""
+    rows = []
+    for group, key in sorted(model.deck.given):
+        k = lookup(group, key)
+        rows.append([f"&{group}", key, model.deck[f"{group}.{key}"], k.unit if k else "", k.doc if k else ""])
+    return _table(["group", "key", "value", "unit", "meaning"], rows, left=5)
+
+
+def _images(result) -> list[tuple[str, str]]:
+    """The run's plots as (name, base64 PNG)."""
+    from pydriver.plots import plot_result
+    out = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in plot_result(result, Path(tmp)):
+            out.append((name, base64.b64encode((Path(tmp) / name).read_bytes()).decode()))
+    return out
+
+
+def html_report(result, model=None) -> str:
+    """The report page of a run."""
+    s = result.summary
+    parts = [f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>{html.escape(s['case'])}</title>"
+             f"<style>{STYLE}</style></head><body>",
+             f"<h1>{html.escape(s['case'])}: {html.escape(s['analysis'])} analysis</h1>",
+             f"<p>Deck <code>{html.escape(s['deck'])}</code>; {s['n_bodies']} bodies, {s['n_coords']} "
+             f"coordinates, {s['n_constraints']} constraint rows; equations in the {s['frame']} frame; "
+             f"computed in {s['wall_time_s']:.2f} s by rotorcable.  SI units, angles in degrees.</p>"]
+    for w in s.get("warnings", []):
+        parts.append(f"<p class='warn'>{html.escape(w)}</p>")
+    parts.append("<h2>Summary</h2><pre>" + html.escape(text_summary(s)) + "</pre>")
+    if "reactions" in s:
+        rows = [[f"F_{k} [N]", *w["F"]] for k, w in s["reactions"].items()]
+        rows += [[f"M_{k} [Nm]", *w["M"]] for k, w in s["reactions"].items()]
+        parts.append("<h2>Support reactions</h2><p>Force and moment the support exerts on the cable "
+                     f"(moment about the clamp point), {s['frame']} frame.</p>" + _table(["", "x", "y", "z"], rows))
+    if "refinement" in s:
+        r = s["refinement"]
+        rows = [[name, *q["values"], q["extrapolated"], q["error_estimate"], q["observed_order"],
+                 q.get("warning") or ""] for name, q in r["quantities"].items()]
+        parts.append(f"<h2>Converged values (n = {', '.join(map(str, r['n']))})</h2>"
+                     "<p>Richardson extrapolation over the three discretisations, with the observed order "
+                     f"(expected {r['expected_order']:g}) and the error estimate |extrapolated - finest|.</p>"
+                     + _table(["quantity", *[f"n = {n}" for n in r["n"]], "extrapolated", "error +-",
+                               "order", "note"], rows))
+    if result.table is not None:
+        t = result.table
+        cols = [c for c in ("body", "gamma_deg", "beta_deg", "x_m", "y_m", "z_m", "axial_N", "shear_N",
+                            "bending_Nm", "torsion_Nm", "strain") if c in t]
+        parts.append("<h2>Shape and loads per body and joint</h2><p>Angles of the thesis (γ, β), centre of "
+                     "mass, and the loads joint j carries (tension positive).</p>"
+                     + _table(cols, [[t[c][i] for c in cols] for i in range(len(t["body"]))]))
+    if s["analysis"] == "modal":
+        rows = [[i + 1, fu, fd, z] for i, (fu, fd, z) in enumerate(zip(s["frequencies_hz"], s["damped_frequencies_hz"],
+                                                                        s["damping_ratios"]))][:12]
+        parts.append("<h2>Natural frequencies</h2>" + _table(["mode", "undamped [Hz]", "damped [Hz]", "zeta"], rows))
+    if s["analysis"] == "campbell":
+        rows = [[c["mode"], f"{c['harmonic']}/rev", c["rpm"], c["frequency_hz"]] for c in s["crossings"]]
+        parts.append("<h2>Campbell diagram: crossings in the operating range</h2>"
+                     f"<p>Operating range {s['operating_rpm'][0]:.0f}-{s['operating_rpm'][1]:.0f} rpm; lowest "
+                     f"frequency there {_num(s['lowest_frequency_hz'], 4)} Hz against 1/rev up to "
+                     f"{_num(s['highest_1rev_hz'], 3)} Hz.</p>"
+                     + (_table(["mode", "harmonic", "rpm", "f [Hz]"], rows) if rows else "<p>No crossings.</p>"))
+    if "fatigue" in s:
+        f = s["fatigue"]
+        rows = [[h["rank"], h["quantity"], h["damage_per_hour"], h["life_hours"] if h["life_hours"] is not None
+                 else "no damage", h["del_amplitude"]] for h in f["hotspots"]]
+        parts.append("<h2>Fatigue hotspots</h2>"
+                     f"<p>{html.escape(f['description'])}</p>"
+                     + _table(["rank", "quantity", "damage per flight hour", "life [h]", "DEL amplitude"], rows, left=2))
+    images = _images(result)
+    if images:
+        parts.append("<h2>Figures</h2>")
+        for name, data in images:
+            parts.append(f"<figure><img alt='{html.escape(name)}' src='data:image/png;base64,{data}'>"
+                         f"<figcaption>{html.escape(name)}</figcaption></figure>")
+    if model is not None:
+        parts.append("<h2>Inputs</h2><p>Every value the deck sets (the rest are the defaults of "
+                     "docs/deck_reference.md).</p>" + _inputs(model))
+    parts.append("</body></html>")
+    return "\n".join(parts)

@@ -1,0 +1,87 @@
+"""The short summary a person reads in the terminal after a run (``--json`` keeps the machine
+form): what ran, the reactions with units, frequencies, peaks, warnings, where the files went."""
+
+from __future__ import annotations
+
+import math
+
+
+def _num(x: float, digits: int = 5) -> str:
+    """A number with ``digits`` significant digits, without exponent clutter near 1."""
+    if x == 0 or not math.isfinite(x):
+        return f"{x:g}"
+    if 1e-3 <= abs(x) < 1e6:
+        decimals = max(0, digits - 1 - int(math.floor(math.log10(abs(x)))))
+        return f"{x:.{decimals}f}"
+    return f"{x:.{digits - 1}e}"
+
+
+def _row(label: str, values, width: int = 12) -> str:
+    return f"    {label:<22}" + "".join(f"{_num(v):>{width}}" for v in values)
+
+
+def text_summary(summary: dict, files: dict | None = None) -> str:
+    """The terminal summary of a run's ``summary.json``."""
+    s = summary
+    lines = [f"{s['case']}  ({s['analysis']}, {s['n_bodies']} bodies, {s['n_coords']} coordinates, "
+             f"{s['n_constraints']} constraint rows, {s['frame']} frame)  {s['wall_time_s']:.2f} s"]
+    solver = s.get("solver", {})
+    if "steps" in solver:
+        lines.append(f"  integration: {solver['steps']} steps, {solver['residual_evals']} residuals")
+    elif "newton_iterations" in solver:
+        lines.append(f"  equilibrium: {solver['newton_iterations']} Newton iterations")
+    if "revolutions" in s:
+        lines.append(f"  periodic after {s['revolutions']} revolutions (last difference "
+                     f"{s['periodic_difference_m'][-1]:.1e} m < {s['periodic_tol_m']:g} m)")
+    if "reactions" in s:
+        where = "hub" if s["frame"] == "hub" else "inertial"
+        lines.append(f"  reactions (support on chain, {where} frame" + (", at the end)" if "t_end_s" in s or
+                                                                                     "revolutions" in s else ")"))
+        lines.append(f"    {'':<22}" + "".join(f"{c:>12}" for c in "xyz"))
+        for side, w in s["reactions"].items():
+            lines.append(_row(f"F_{side} [N]", w["F"]))
+            lines.append(_row(f"M_{side} [Nm]", w["M"]))
+    if "tip_m" in s:
+        lines.append(_row("tip [m]", s["tip_m"]))
+    if s.get("max_constraint_violation_m"):
+        lines.append(f"  clamp closed to {s['max_constraint_violation_m']:.1e} m")
+    if "frequencies_hz" in s and s["analysis"] == "modal":
+        fu = ", ".join(_num(f, 4) for f in s["frequencies_hz"][:6])
+        fd = ", ".join(_num(f, 4) for f in s["damped_frequencies_hz"][:6])
+        lines.append(f"  natural frequencies [Hz]: {fu}")
+        lines.append(f"  damped [Hz]:              {fd}")
+    if "decay" in s and "f_damped_hz" in s["decay"]:
+        d = s["decay"]
+        lines.append(f"  decay test: {_num(d['f_damped_hz'], 5)} Hz damped"
+                     + (f", zeta = {_num(d['zeta'], 3)}" if "zeta" in d else ""))
+    if s["analysis"] == "campbell":
+        lines.append(f"  lowest frequency in the operating range {_num(s['lowest_frequency_hz'], 4)} Hz; "
+                     f"1/rev reaches {_num(s['highest_1rev_hz'], 3)} Hz")
+        lines.append(f"  crossings with 1/rev ... {s['harmonics']}/rev in the operating range: "
+                     f"{len(s['crossings'])}")
+        for c in s["crossings"][:8]:
+            lines.append(f"    mode {c['mode']} x {c['harmonic']}/rev at {c['rpm']:.0f} rpm "
+                         f"({_num(c['frequency_hz'], 4)} Hz)")
+    if "peaks" in s:
+        p = s["peaks"]
+        lines.append(f"  largest bending moment {_num(p['bending']['max_abs'])} Nm at joint "
+                     f"{p['bending']['joint']}, azimuth {p['bending']['azimuth_deg']:.0f} deg; largest jacket "
+                     f"strain {_num(p['strain']['max_abs'], 3)}")
+    if "fatigue" in s:
+        top = s["fatigue"]["hotspots"][:3]
+        for h in top:
+            life = h["life_hours"]
+            life_text = "no damage" if life is None else f"{_num(life, 3)} h"
+            lines.append(f"  fatigue hotspot {h['rank']}: {h['quantity']}, life {life_text}")
+    if "refinement" in s:
+        lines.append("  converged values (Richardson over n, 2n, 4n):")
+        for name, r in list(s["refinement"]["quantities"].items())[:8]:
+            lines.append(f"    {name:<26}{_num(r['extrapolated'])} +- {_num(r['error_estimate'], 2)} "
+                         f"(order {r['observed_order']:.2f})")
+    for w in s.get("warnings", []):
+        lines.append(f"  warning: {w}")
+    if files:
+        folder = {str(p.parent) for p in files.values()}
+        names = ", ".join(sorted(p.name for p in files.values()))
+        lines.append(f"  files: {' '.join(sorted(folder))}/ ({names})")
+    return "\n".join(lines)
