@@ -100,7 +100,9 @@ class SNCurve:
         damaging = a > self.endurance_amplitude
         n = np.full(a.shape, np.inf)
         # Only damaging amplitudes are raised to -m: a zero amplitude would divide by zero.
-        n[damaging] = self.reference_cycles * (a[damaging] / self.reference_amplitude) ** (-self.exponent)
+        # A tiny one may still overflow to inf cycles, which is the right limit: no damage.
+        with np.errstate(over="ignore"):
+            n[damaging] = self.reference_cycles * (a[damaging] / self.reference_amplitude) ** (-self.exponent)
         return n
 
 
@@ -240,10 +242,30 @@ def miner_damage(cyc: Cycles, sn: SNCurve) -> float:
     -------
     float
         Damage (failure at D = 1); 0.0 for no cycles.
+
+    Raises
+    ------
+    ValueError
+        If the damage exceeds the float range (typically an S-N curve in other units than
+        the signal, e.g. MPa against Pa).
     """
-    if cyc.counts.size == 0:
+    a = cyc.amplitudes
+    damaging = a > sn.endurance_amplitude
+    if not np.any(damaging):
         return 0.0
-    return float(np.sum(cyc.counts / sn.cycles_to_failure(cyc.amplitudes)))
+    a, n = a[damaging], cyc.counts[damaging]
+    # n / N(a) = n (a / S_ref)^m / N_ref, written so that N(a) never underflows to 0 for
+    # a >> S_ref; the largest amplitude is factored out so only that factor can overflow.
+    a_max = float(np.max(a))
+    try:
+        factor = (a_max / sn.reference_amplitude) ** sn.exponent / sn.reference_cycles
+    except OverflowError:
+        factor = math.inf
+    damage = factor * float(np.sum(n * (a / a_max) ** sn.exponent))
+    if not math.isfinite(damage):
+        raise ValueError(f"miner_damage: damage exceeds the float range (largest amplitude {a_max:g} "
+                         f"against reference amplitude {sn.reference_amplitude:g}): check the units")
+    return damage
 
 
 def damage_equivalent_amplitude(cyc: Cycles, exponent: float, n_equivalent: float) -> float:
@@ -350,7 +372,10 @@ def fatigue_table(columns: dict[str, np.ndarray], sn: SNCurve, revolutions: floa
         except ValueError as err:
             raise ValueError(f"fatigue_table: {err}") from None
         cyc = cycles(x, periodic=periodic)
-        damage_per_rev = miner_damage(cyc, sn) / revs
+        try:
+            damage_per_rev = miner_damage(cyc, sn) / revs
+        except ValueError as err:
+            raise ValueError(f"fatigue_table: column {name!r}: {err}") from None
         damage_per_hour = damage_per_rev * per_hour
         rows.append({
             "quantity": name,

@@ -290,3 +290,15 @@ def test_fatigue_table_rejects_bad_revolutions(revs, per_hour):
     """Revolutions and speed divide and multiply the damage: they must be finite and > 0."""
     with pytest.raises(ValueError, match="revolutions"):
         fatigue_table({"M": sine(1.0, 1)}, SN, revs, per_hour)
+
+
+def test_damage_beyond_float_range_is_an_error():
+    """An S-N curve in other units than the signal (amplitude 1e6 against S_ref = 1, m = 60)
+    gives a damage beyond 1e308: a ValueError naming the column, never inf or NaN. A steep but
+    representable case (m = 50: 1e300 / 1e6) stays exact (1e-12 relative)."""
+    cyc = Cycles(ranges=np.array([2.0e6]), means=np.zeros(1), counts=np.ones(1))
+    assert miner_damage(cyc, SNCurve(50.0, 1.0, 1.0e6)) == pytest.approx(1.0e294, rel=REL, abs=0.0)
+    with pytest.raises(ValueError, match="float range"):
+        miner_damage(cyc, SNCurve(60.0, 1.0, 1.0e6))
+    with pytest.raises(ValueError, match="column 'M'"):
+        fatigue_table({"M": [1.0e6, -1.0e6]}, SNCurve(60.0, 1.0, 1.0e6), 1.0, 1.0)
