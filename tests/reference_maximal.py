@@ -117,9 +117,9 @@ class Jet:
     # quantity's own axes and never on the Taylor axis.
     def __add__(self, o):
         if isinstance(o, Jet):
-            return Jet(np.stack([x + y for x, y in zip(self.c, o.c)]))
+            return Jet(np.array([x + y for x, y in zip(self.c, o.c)]))
         z = np.zeros_like(np.asarray(o))
-        return Jet(np.stack([self.c[0] + o] + [x + z for x in self.c[1:]]))
+        return Jet(np.array([self.c[0] + o] + [x + z for x in self.c[1:]]))
 
     __radd__ = __add__
 
@@ -175,11 +175,11 @@ def _bilinear(op, a, b):
     if isinstance(a, Jet) and isinstance(b, Jet):
         if a.order != b.order:
             raise ValueError("jets of different order")
-        return Jet(np.stack([sum(op(a.c[i], b.c[k - i]) for i in range(k + 1))
+        return Jet(np.array([sum(op(a.c[i], b.c[k - i]) for i in range(k + 1))
                              for k in range(a.order + 1)]))
     if isinstance(a, Jet):
-        return Jet(np.stack([op(x, b) for x in a.c]))
-    return Jet(np.stack([op(a, x) for x in b.c]))
+        return Jet(np.array([op(x, b) for x in a.c]))
+    return Jet(np.array([op(a, x) for x in b.c]))
 
 
 def _order(items) -> int | None:
@@ -234,11 +234,22 @@ def _deriv(x, k: int):
     return np.asarray(x) if k == 0 else np.zeros_like(np.asarray(x, float))
 
 
+def _cross_array(a, b):
+    """Cross product over the last axis; np.cross's axis handling costs more than the
+    arithmetic for 3-vectors."""
+    a, b = np.asarray(a), np.asarray(b)
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape), dtype=np.result_type(a, b))
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out
+
+
 def cross(a, b):
     """Cross product of 3-vectors (arrays, complex arrays or jets)."""
     if isinstance(a, Jet) or isinstance(b, Jet):
-        return _bilinear(np.cross, a, b)
-    return np.cross(a, b)
+        return _bilinear(_cross_array, a, b)
+    return _cross_array(a, b)
 
 
 def vee(M):
@@ -260,28 +271,46 @@ E_Y = np.array([0.0, 1.0, 0.0])
 E_Z = np.array([0.0, 0.0, 1.0])
 
 
+def _elementary_array(c, s, i, k, axis):
+    """Rotation about coordinate axis `axis`: [[c, -s], [s, c]] in rows/columns (i, k)."""
+    R = np.zeros((3, 3), dtype=np.result_type(c, float))
+    R[axis, axis] = 1.0
+    R[i, i] = R[k, k] = c
+    R[i, k], R[k, i] = -s, s
+    return R
+
+
+def _elementary_jet(c: Jet, s: Jet, i, k, axis):
+    """Jet version of _elementary_array (coefficients filled directly, no lifting)."""
+    R = np.zeros((c.order + 1, 3, 3), dtype=c.c.dtype)
+    R[0, axis, axis] = 1.0
+    R[:, i, i] = R[:, k, k] = c.c
+    R[:, i, k], R[:, k, i] = -s.c, s.c
+    return Jet(R)
+
+
 def Rz(a):
     """Active rotation by a about z."""
     c, s = _cos(a), _sin(a)
     if not isinstance(a, Jet):
-        return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-    return _mat3([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        return _elementary_array(c, s, 0, 1, 2)
+    return _elementary_jet(c, s, 0, 1, 2)
 
 
 def Ry(b):
     """Active rotation by b about y."""
     c, s = _cos(b), _sin(b)
     if not isinstance(b, Jet):
-        return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
-    return _mat3([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+        return _elementary_array(c, s, 2, 0, 1)
+    return _elementary_jet(c, s, 2, 0, 1)
 
 
 def Rx(a):
     """Active rotation by a about x."""
     c, s = _cos(a), _sin(a)
     if not isinstance(a, Jet):
-        return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
-    return _mat3([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+        return _elementary_array(c, s, 1, 2, 0)
+    return _elementary_jet(c, s, 1, 2, 0)
 
 
 def rot_axis(u, theta):
@@ -837,7 +866,7 @@ def kinematics(model: ChainModel, q, qd=None, t: float = 0.0, qdd=None) -> dict:
     if model.joint == "zy":
         R_par = np.concatenate([R0[None], Rs[:-1]])
         ag, ab = R_par @ E_Z, Rs @ E_Y
-        out.update(a_gamma=ag, a_beta=ab, n_axis=np.cross(ag, ab))
+        out.update(a_gamma=ag, a_beta=ab, n_axis=cross(ag, ab))
     if qd is None:
         return out
     qdd = np.zeros(model.nq) if qdd is None else qdd
@@ -918,7 +947,7 @@ def _body_forces(model: ChainModel, st: dict, t: float) -> np.ndarray:
         psi, Om, _ = rotor_state(model.rotor, t)
         if model.hub:
             V = Rz(psi).T @ model.drag.V_inf
-            v_abs = st["vC"] + np.cross(Om * E_Z, st["C"] - model.rotor_centre)
+            v_abs = st["vC"] + cross(Om * E_Z, st["C"] - model.rotor_centre)
         else:
             V = model.drag.V_inf
             v_abs = st["vC"]
@@ -951,16 +980,16 @@ def _frame_terms(model: ChainModel, st: dict, Iw: np.ndarray, t: float):
     w = st["w"]
     Iww = np.einsum("jab,jb->ja", Iw, w)
     if not model.hub:
-        return np.zeros_like(w), np.cross(w, Iww)
+        return np.zeros_like(w), cross(w, Iww)
     _, Om, Omd = rotor_state(model.rotor, t)
     W, Wd = Om * E_Z, Omd * E_Z
     r = st["C"] - model.rotor_centre
-    a_fr = 2.0 * np.cross(W, st["vC"]) + np.cross(Wd, r) + np.cross(W, np.cross(W, r))
+    a_fr = 2.0 * cross(W, st["vC"]) + cross(Wd, r) + cross(W, cross(W, r))
     if not model.body_couples:
-        return a_fr, np.cross(w, Iww)
+        return a_fr, cross(w, Iww)
     wa = w + W
-    e_fr = (np.einsum("jab,jb->ja", Iw, Wd + np.cross(W, w))
-            + np.cross(wa, np.einsum("jab,jb->ja", Iw, wa)))
+    e_fr = (np.einsum("jab,jb->ja", Iw, Wd + cross(W, w))
+            + cross(wa, np.einsum("jab,jb->ja", Iw, wa)))
     return a_fr, e_fr
 
 
@@ -1034,7 +1063,7 @@ def _solve_maximal(model: ChainModel, q, qd, t: float = 0.0, clamp: bool | None 
             A[rE, cm(j + 1)] = I3
         else:
             b[rN] += model.tip_force
-            b[rE] += np.cross(P[n] - C[j], model.tip_force)
+            b[rE] += cross(P[n] - C[j], model.tip_force)
             if clamp:
                 A[rN, cl_p] = -I3
                 A[rE, cl_p] = -skew(P[n] - C[j])
@@ -1043,7 +1072,7 @@ def _solve_maximal(model: ChainModel, q, qd, t: float = 0.0, clamp: bool | None 
     # ---------------- joint rows (rows 6n .. 12n-1) ----------------
     def centripetal(jb, point):
         r = point - C[jb]
-        return np.cross(w[jb], np.cross(w[jb], r))
+        return cross(w[jb], cross(w[jb], r))
 
     for j in range(n):
         rP, rR = slice(6 * n + 6 * j, 6 * n + 6 * j + 3), slice(6 * n + 6 * j + 3, 6 * n + 6 * j + 6)
@@ -1245,7 +1274,7 @@ def energy_parts(model: ChainModel, q, v, t: float = 0.0) -> dict:
         _, Om, _ = rotor_state(model.rotor, t)
         W = Om * E_Z
         r = st["C"] - model.rotor_centre
-        pot -= 0.5 * np.sum(model.m * np.sum(np.cross(W, r) ** 2, axis=1))
+        pot -= 0.5 * np.sum(model.m * np.sum(cross(W, r) ** 2, axis=1))
         if model.body_couples:
             pot -= 0.5 * np.einsum("a,jab,b->", W, Iw, W)
     pot += _legacy_field_potential(model, st["C"])
