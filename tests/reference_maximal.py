@@ -209,11 +209,6 @@ def _stack(items, axis: int = 0):
     return Jet(np.stack([x.c for x in lifted], axis=axis + 1 if axis >= 0 else axis))
 
 
-def _mat3(rows):
-    """3x3 matrix from nested rows of scalars or scalar jets."""
-    return _stack([_stack(r) for r in rows])
-
-
 def _sin(x):
     return x.sincos()[0] if isinstance(x, Jet) else np.sin(x)
 
@@ -442,12 +437,12 @@ class AngleFunction:
             return psi + self.offset
         if self.kind == "fourier":
             co = list(self.coefficients)
-            psi_b = psi + self.azimuth0
-            th = (co[0] if co else 0.0) + self.amplitude * _sin(self.frequency * t + self.phase)
-            for k in range(1, (len(co) - 1) // 2 + 1):
-                th = th + co[2 * k - 1] * _cos(k * psi_b) + co[2 * k] * _sin(k * psi_b)
-            if len(co) % 2 == 0 and len(co) > 0:
+            if len(co) % 2 == 0:
                 raise ValueError("fourier coefficients must be (a0, c1, s1, ..., ck, sk)")
+            psi_b = psi + self.azimuth0
+            th = co[0] + self.amplitude * _sin(self.frequency * t + self.phase)
+            for k in range(1, len(co) // 2 + 1):
+                th = th + co[2 * k - 1] * _cos(k * psi_b) + co[2 * k] * _sin(k * psi_b)
             return th
         raise ValueError(f"unknown angle function kind {self.kind!r}")
 
@@ -882,8 +877,19 @@ def kinematics(model: ChainModel, q, qd=None, t: float = 0.0, qdd=None) -> dict:
 def constraint(model: ChainModel, q, t: float = 0.0) -> np.ndarray:
     """Clamp residual g(q, t) = [P_{n+1} - p_B(t); 1/2 vee(E - E^T)], E = R_n R_B(t)^T.
 
-    Returns shape (6,) ([m], [-]); shape (0,) without the clamp.  A legacy model (no
-    clamp_position) gives zeros: its clamp holds the current pose.
+    Parameters
+    ----------
+    model : ChainModel
+    q : array_like, shape (nq,)
+        Coordinates [rad].
+    t : float
+        Time [s] (moving clamp).
+
+    Returns
+    -------
+    ndarray, shape (6,)
+        Position rows [m], rotation rows [-]; shape (0,) without the clamp.  A legacy
+        model (no clamp_position) gives zeros: its clamp holds the current pose.
     """
     if not model.clamp_B:
         return np.zeros(0)
@@ -892,7 +898,21 @@ def constraint(model: ChainModel, q, t: float = 0.0) -> np.ndarray:
 
 
 def constraint_jacobian(model: ChainModel, q, t: float = 0.0) -> np.ndarray:
-    """G = dg/dq, shape (6, nq), by the complex step (exact to round-off)."""
+    """Constraint Jacobian G = dg/dq by the complex step (exact to round-off).
+
+    Parameters
+    ----------
+    model : ChainModel
+    q : array_like, shape (nq,)
+        Coordinates [rad].
+    t : float
+        Time [s].
+
+    Returns
+    -------
+    ndarray, shape (6, nq)
+        G ([m/rad], [1/rad]); shape (0, nq) without the clamp.
+    """
     if not model.clamp_B:
         return np.zeros((0, model.nq))
     q = np.asarray(q, float)
@@ -906,15 +926,44 @@ def constraint_jacobian(model: ChainModel, q, t: float = 0.0) -> np.ndarray:
 
 
 def constraint_velocity(model: ChainModel, q, v, t: float = 0.0) -> np.ndarray:
-    """G v + g_t = d/ds g(q + s v, t + s) at s = 0, shape (6,), by the Taylor jet."""
+    """Constraint velocity G v + g_t = d/ds g(q + s v, t + s) at s = 0, by the Taylor jet.
+
+    Parameters
+    ----------
+    model : ChainModel
+    q, v : array_like, shape (nq,)
+        Coordinates [rad] and rates [rad/s].
+    t : float
+        Time [s].
+
+    Returns
+    -------
+    ndarray, shape (6,)
+        [m/s], [1/s]; shape (0,) without the clamp.
+    """
     if not model.clamp_B:
         return np.zeros(0)
     return _motion(model, q, v, np.zeros(model.nq), t, clamp=True)["g_dot"]
 
 
 def constraint_bias(model: ChainModel, q, v, t: float = 0.0) -> np.ndarray:
-    """Acceleration bias d^2/ds^2 g(q + s v, t + s) at s = 0 (qdd = 0), shape (6,), so
-    that d^2 g/dt^2 = G qdd + bias; by the Taylor jet."""
+    """Acceleration bias d^2/ds^2 g(q + s v, t + s) at s = 0, by the Taylor jet.
+
+    It is d^2 g/dt^2 at qdd = 0, so that d^2 g/dt^2 = G qdd + bias.
+
+    Parameters
+    ----------
+    model : ChainModel
+    q, v : array_like, shape (nq,)
+        Coordinates [rad] and rates [rad/s].
+    t : float
+        Time [s].
+
+    Returns
+    -------
+    ndarray, shape (6,)
+        [m/s^2], [1/s^2]; shape (0,) without the clamp.
+    """
     if not model.clamp_B:
         return np.zeros(0)
     return _motion(model, q, v, np.zeros(model.nq), t, clamp=True)["g_ddot"]
@@ -1183,8 +1232,24 @@ def forward_dynamics(model: ChainModel, q, qd, t: float = 0.0) -> dict:
 # 5. Generalized mass matrix, forces and the virtual-power residual
 # ----------------------------------------------------------------------------------
 def mass_matrix(model: ChainModel, q, t: float = 0.0) -> np.ndarray:
-    """M(q): columns of M^{-1} = response of qdd to unit generalized torques (chain
-    without the clamp).  Not symmetrised: symmetry is a check of the formulation."""
+    """Generalized mass matrix from the maximal system.
+
+    Columns of M^{-1} are the responses of qdd to unit generalized torques (chain without
+    the clamp).  Not symmetrised: symmetry is a check of the formulation.
+
+    Parameters
+    ----------
+    model : ChainModel
+    q : array_like, shape (nq,)
+        Coordinates [rad].
+    t : float
+        Time [s] (moving supports change nothing in M but enter the solves).
+
+    Returns
+    -------
+    ndarray, shape (nq, nq)
+        M [kg m^2].
+    """
     nq = model.nq
     qd0 = np.zeros(nq)
     base = _solve_maximal(model, q, qd0, t, clamp=False)["vdot"]
@@ -1197,7 +1262,23 @@ def mass_matrix(model: ChainModel, q, t: float = 0.0) -> np.ndarray:
 
 
 def generalized_forces(model: ChainModel, q, qd, t: float = 0.0) -> np.ndarray:
-    """k(q, qd, t) such that M qdd = k (+ G^T lambda for the clamp): k = M @ qdd_free."""
+    """Generalized forces k(q, qd, t) with M qdd = k (+ G^T lambda for the clamp).
+
+    k = M qdd_free, qdd_free from the maximal system without the clamp.
+
+    Parameters
+    ----------
+    model : ChainModel
+    q, qd : array_like, shape (nq,)
+        Coordinates [rad] and rates [rad/s].
+    t : float
+        Time [s].
+
+    Returns
+    -------
+    ndarray, shape (nq,)
+        k [Nm].
+    """
     qdd0 = _solve_maximal(model, q, qd, t, clamp=False)["vdot"]
     return mass_matrix(model, q, t) @ qdd0
 
@@ -1257,6 +1338,14 @@ def energy_parts(model: ChainModel, q, v, t: float = 0.0) -> dict:
     Omega, fixed supports and no dampers, drag or pulse, kinetic + potential (the Jacobi
     integral) is conserved.
 
+    Parameters
+    ----------
+    model : ChainModel
+    q, v : array_like, shape (nq,)
+        Coordinates [rad] and rates [rad/s].
+    t : float
+        Time [s] (Omega(t) of the centrifugal potential, moving supports).
+
     Returns
     -------
     dict
@@ -1288,8 +1377,24 @@ def _legacy_field_potential(model: ChainModel, C: np.ndarray) -> float:
 
 
 def energy(model: ChainModel, q, qd, t: float = 0.0) -> float:
-    """kinetic + potential of ``energy_parts`` WITHOUT the legacy field's potential (the
-    existing callers add -1/2 m w^2 r^2 themselves)."""
+    """Total energy: kinetic + potential of ``energy_parts`` without the legacy field.
+
+    The legacy quasi-static field's potential is left out, as it always was (the existing
+    callers add -1/2 m w^2 r^2 themselves).
+
+    Parameters
+    ----------
+    model : ChainModel
+    q, qd : array_like, shape (nq,)
+        Coordinates [rad] and rates [rad/s].
+    t : float
+        Time [s].
+
+    Returns
+    -------
+    float
+        Energy [J].
+    """
     e = energy_parts(model, q, qd, t)
     C = kinematics(model, q, t=t)["c"]
     return e["kinetic"] + e["potential"] - _legacy_field_potential(model, C)

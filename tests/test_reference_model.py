@@ -299,6 +299,10 @@ def test_prescribed_motion_composition():
 
     q = RNG.uniform(-1, 1, model.nq)
     for t in (0.0, 0.3, 0.8):
+        psi = RUN_UP.angle(t)
+        assert h2.angle(t, psi) == pytest.approx(0.2 + 0.1 * np.cos(psi) - 0.05 * np.sin(psi)
+                                                 + 0.02 * np.sin(5.0 * t), rel=1e-15)
+        assert h1.angle(t, psi) == psi + 0.1
         kin = ref.kinematics(model, q, np.zeros(model.nq), t)
         p, R0 = base_pose(t)
         assert np.max(np.abs(kin["P"][0] - p)) < 1e-14
