@@ -1,189 +1,42 @@
-"""Reading results back: one row of scalar results per run, and ``load_results(DIR)``.
+"""Reading results back for post-processing: ``load_results(DIR)``.
 
 A sweep directory (``python -m pydriver sweep``) holds ``sweep.json`` (the manifest: base
 deck, swept parameters and grid), ``decks/<id>.nml`` and one record per finished deck in
 ``runs/<id>/``: the files of ``python -m pydriver run`` (``summary.json``, ``table.csv``,
-``modes.csv``, ``timeseries.csv``) or ``error.json`` for a deck that failed.  The table of
-``sweep.csv`` is built from those records, so this module is shared by the aggregation
-(``pydriver.sweep``) and by ``load_results``.
+``modes.csv``, ``timeseries.csv``) or ``error.json`` for a deck that failed.  The table is
+built from those records exactly as ``sweep.csv`` is (:mod:`pydriver.sweep.table`).
 """
 
 from __future__ import annotations
 
-import csv
-import json
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-SOLVER_KEYS_DYNAMIC = ("steps", "residual_evals", "jacobian_evals", "error_test_failures",
-                       "convergence_failures")
-SOLVER_KEYS_STATIC = ("newton_iterations", "residual_evals", "jacobian_evals", "line_search_cuts")
+# The table of a sweep and its records are the sweep package's; their names stay importable
+# from here, where they were first defined.
+from pydriver.sweep.records import MANIFEST, read_manifest, read_record
+from pydriver.sweep.table import (
+    DYNAMIC_COLUMNS,
+    REACTION_COLUMNS,
+    RESULT_COLUMNS,
+    SOLVER_COLUMNS,
+    SOLVER_KEYS_DYNAMIC,
+    SOLVER_KEYS_STATIC,
+    TABLE,
+    TEXT_COLUMNS,
+    rows_to_table,
+    summary_row,
+    sweep_rows,
+    table_csv_text,
+)
 
-MANIFEST = "sweep.json"
-TABLE = "sweep.csv"
-
-REACTION_COLUMNS = [f"{kind}{side}_{c}" for side in "AB" for kind in "FM" for c in "xyz"]
-# Columns present in every sweep.csv (blank where a run does not have the quantity, e.g.
-# frequencies of a static run or FB_* of an open chain), so the layout depends only on
-# the kind of analysis, not on which runs happened to fail.
-RESULT_COLUMNS = (["analysis", "wall_time_s", "max_constraint_violation_m"] + REACTION_COLUMNS
-                  + ["f1_hz", "f2_hz", "f3_hz", "f1_damped_hz", "zeta1"])
-# Optional columns, included when at least one run has them.
-DYNAMIC_COLUMNS = ["energy_drift_rel"]
-SOLVER_COLUMNS = [f"solver_{k}" for k in dict.fromkeys(SOLVER_KEYS_STATIC + SOLVER_KEYS_DYNAMIC)]
-TEXT_COLUMNS = {"id", "analysis", "error"}
-
-
-def summary_row(summary: dict) -> dict:
-    """Scalar results of one run's ``summary.json``, keyed by ``sweep.csv`` column.
-
-    Parameters
-    ----------
-    summary : dict
-        Content of ``summary.json`` (``pydriver.Result.summary``).
-
-    Returns
-    -------
-    dict
-        ``analysis``, ``wall_time_s``, ``max_constraint_violation_m``, the reactions
-        flattened (``FA_x`` ... ``MB_z``, support on chain, world frame), ``f1_hz`` ...
-        ``f3_hz`` (lowest undamped frequencies of a modal run), ``f1_damped_hz`` and
-        ``zeta1`` (first damped frequency and damping ratio: from the modal analysis, or from
-        the decay evaluation of a dynamic run with a pulse), ``energy_drift_rel`` (dynamic)
-        and ``solver_<counter>``.  Quantities a run does not have are left out.
-    """
-    row = {"analysis": summary["analysis"], "wall_time_s": summary["wall_time_s"],
-           "max_constraint_violation_m": summary["max_constraint_violation_m"]}
-    for side, wrench in summary["reactions"].items():
-        for kind in "FM":
-            for c, comp in enumerate("xyz"):
-                row[f"{kind}{side}_{comp}"] = wrench[kind][c]
-    for k, f in enumerate(summary.get("frequencies_hz", [])[:3]):
-        row[f"f{k + 1}_hz"] = f
-    if summary.get("damped_frequencies_hz"):
-        row["f1_damped_hz"] = summary["damped_frequencies_hz"][0]
-        row["zeta1"] = summary["damping_ratios"][0]
-    elif "decay" in summary:
-        row["f1_damped_hz"] = summary["decay"]["f_damped_hz"]
-        row["zeta1"] = summary["decay"]["zeta"]
-    if "energy_drift_rel" in summary:
-        row["energy_drift_rel"] = summary["energy_drift_rel"]
-    for k, v in summary.get("solver", {}).items():
-        row[f"solver_{k}"] = v
-    return row
-
-
-def read_record(run_dir) -> dict | None:
-    """The record of one finished run: ``{"summary": dict}`` or ``{"error": str}``.
-
-    Returns None when the run has not finished (no ``summary.json`` nor ``error.json``).
-    Records appear atomically (the run directory is renamed into place complete), so a
-    record that exists is whole.
-    """
-    run_dir = Path(run_dir)
-    if (run_dir / "summary.json").is_file():
-        return {"summary": json.loads((run_dir / "summary.json").read_text())}
-    if (run_dir / "error.json").is_file():
-        return {"error": json.loads((run_dir / "error.json").read_text())["error"]}
-    return None
-
-
-def read_manifest(out) -> dict:
-    """The manifest ``DIR/sweep.json`` of a sweep directory."""
-    path = Path(out) / MANIFEST
-    if not path.is_file():
-        raise FileNotFoundError(f"{out}: not a sweep directory (no {MANIFEST})")
-    return json.loads(path.read_text())
-
-
-def sweep_rows(out, manifest: dict) -> tuple[list[str], list[dict]]:
-    """Columns and rows (finished runs only, sorted by id) of a sweep's table.
-
-    Parameters
-    ----------
-    out : str or Path
-        Sweep directory.
-    manifest : dict
-        Its ``sweep.json``.
-
-    Returns
-    -------
-    columns : list of str
-        ``id``, the swept parameters (``group.key``), the result columns, ``error``.
-    rows : list of dict
-        One per run with a record; values are floats, ints or strings, missing ones absent.
-    """
-    params = manifest["params"]
-    rows = []
-    for point in manifest["points"]:
-        rec = read_record(Path(out) / "runs" / point["id"])
-        if rec is None:
-            continue
-        row = {"id": point["id"], **dict(zip(params, point["values"]))}
-        if "summary" in rec:
-            row.update(summary_row(rec["summary"]))
-            row["error"] = ""
-        else:
-            row["error"] = rec["error"]
-        rows.append(row)
-    present = set().union(*rows) if rows else set()
-    columns = (["id"] + params + RESULT_COLUMNS
-               + [c for c in DYNAMIC_COLUMNS + SOLVER_COLUMNS if c in present] + ["error"])
-    rows.sort(key=lambda r: r["id"])
-    return columns, rows
-
-
-def _cell(v) -> str:
-    if v is None:
-        return ""
-    if isinstance(v, float):
-        return repr(v)          # shortest text that round-trips exactly
-    return str(v)
-
-
-def table_csv_text(columns: list[str], rows: list[dict]) -> str:
-    """``sweep.csv`` text: a header and one row per run; blank cells for missing values.
-
-    Written with the csv module because error messages contain commas and quotes.
-    """
-    import io
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(columns)
-    for r in rows:
-        w.writerow([_cell(r.get(c)) for c in columns])
-    return buf.getvalue()
-
-
-def _number(text: str) -> float | None:
-    """A namelist number as float (Fortran ``1.0d-3`` exponents too); None if not one."""
-    try:
-        return float(text.strip().lower().replace("d", "e"))
-    except ValueError:
-        return None
-
-
-def rows_to_table(columns: list[str], rows: list[dict], params=()) -> dict:
-    """Column arrays: float for numeric columns (NaN where blank), str for text ones.
-
-    A swept parameter is float when every one of its values is a number, else str.
-    """
-    table = {}
-    for c in columns:
-        vals = [r.get(c) for r in rows]
-        if c in TEXT_COLUMNS:
-            table[c] = np.array(["" if v is None else str(v) for v in vals], dtype=str)
-        elif c in params:
-            nums = [_number(str(v)) for v in vals]
-            table[c] = (np.array(nums, dtype=float) if all(x is not None for x in nums)
-                        else np.array([str(v) for v in vals], dtype=str))
-        else:
-            table[c] = np.array([math.nan if v in (None, "") else float(v) for v in vals], dtype=float)
-    return table
+__all__ = ["DYNAMIC_COLUMNS", "MANIFEST", "REACTION_COLUMNS", "RESULT_COLUMNS", "SOLVER_COLUMNS",
+           "SOLVER_KEYS_DYNAMIC", "SOLVER_KEYS_STATIC", "TABLE", "TEXT_COLUMNS", "RunResult",
+           "SweepResults", "load_results", "load_run", "read_manifest", "read_record",
+           "rows_to_table", "summary_row", "sweep_rows", "table_csv_text"]
 
 
 def _read_columns(path: Path, ints=()) -> dict | None:

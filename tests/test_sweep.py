@@ -5,21 +5,29 @@ uninterrupted (the reference), killed midway and resumed, through a Dask LocalCl
 a Slurm array task.  Every path runs the same deterministic computation on the same decks,
 so their numbers must agree to round-off; the tolerance 1e-12 relative is far above the
 ~1e-16 of identical floating-point operations and far below any modelling difference.
+Also: grid values checked by the deck schema, a base deck written with one-line groups, two
+sweeps started together into one directory (the lock), a killed sweep's pool processes, and
+the permissions of a sweep's files.
 """
 
+import contextlib
 import csv
 import json
 import math
 import os
 import signal
+import stat
 import subprocess
 import sys
 import time
+import uuid
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import pydriver
+from pydriver.deckfile import read_deck
 from pydriver.sweep import SweepError, expand_grid, parse_set
 from conftest import INPUTS
 
@@ -83,10 +91,19 @@ def test_grid_syntax():
     params, points, _ = expand_grid(["springs.c_beta=1,2", "springs.d_beta=5,6,7"])
     assert params == ["springs.c_beta", "springs.d_beta"]
     assert points == [["1", "5"], ["1", "6"], ["1", "7"], ["2", "5"], ["2", "6"], ["2", "7"]]
+    # A per-joint key takes one value for every joint (the schema's rule), or one element.
+    assert parse_set("springs.rest_beta_deg=0,5")[:2] == ("springs.rest_beta_deg", ["0", "5"])
+    assert parse_set("springs.c_beta(2)=5")[0] == "springs.c_beta(2)"
+    # Every value is parsed and type-checked by the deck schema, wherever it is in the list.
     for bad, words in [("springs.c_beta", "GROUP.KEY=VALUES"), ("c_beta=1", "GROUP.KEY"),
                        ("springs.c_beta=1:2", "a:b:n"), ("springs.c_beta=1:2:x", "integer n"),
                        ("springs.c_beta=log:0:1:3", "a > 0"), ("springs.c_beta=1,,2", "empty"),
-                       ("loads.gravity=0,0,-9.81", "array")]:
+                       ("loads.gravity=0,0,-9.81", "array"), ("springs.c_bta=1", "unknown key"),
+                       ("nogroup.x=1", "unknown group"), ("springs.c_beta=1,abc", "not a number"),
+                       ("springs.c_beta=1,.true.", "not a number"),
+                       ("springs.c_beta=1,11*3", "reads as 11 values"),
+                       ("chain.n_bodies=5,1.5", "not an integer"), ("chain.n_bodies(2)=5", "not an array"),
+                       ("loads.gravity(4)=1", "no element 4"), ("clamp_b.active=.true.,1", "not a logical")]:
         with pytest.raises(SweepError, match=words) as exc:
             parse_set(bad)
         assert f"--set {bad}" in str(exc.value)
@@ -212,6 +229,13 @@ def test_bad_set_option_is_named(tmp_path, reference):
     assert not out.exists()                     # nothing written, nothing run
     proc = cli("sweep", BASE, "--set", "nogroup.x=1", "--out", out)
     assert proc.returncode == 2 and "--set nogroup.x=1" in proc.stderr and "unknown group" in proc.stderr
+    # A malformed value anywhere in the grid (not only at the first point) stops the sweep.
+    proc = cli("sweep", BASE, "--set", "springs.d_beta=0.05", "--set", "springs.c_beta=1,2,3x", "--out", out)
+    assert proc.returncode == 2 and "--set springs.c_beta=1,2,3x: value 3x" in proc.stderr
+    # The base deck gives the start shape body by body: one value would flatten it.
+    proc = cli("sweep", BASE, "--set", "shape.beta_deg=10,20", "--out", out)
+    assert proc.returncode == 2 and "per element" in proc.stderr and "shape.beta_deg(2)" in proc.stderr
+    assert not out.exists()
     # A resume with another grid is refused and leaves the sweep alone.
     manifest = (reference / "sweep.json").read_text()
     proc = cli("sweep", BASE, "--set", "springs.c_beta=1:70:12", "--out", reference, "--quiet")
@@ -256,3 +280,168 @@ def test_slurm_script(reference, tmp_path):
     # Written again (a resume), the array leaves out the finished point.
     cli("sweep", BASE, "--set", CY, "--out", out, "--slurm")
     assert "#SBATCH --array=0-6,8-23\n" in (out / "sweep.slurm").read_text()
+
+
+# One-line groups, and a one-line group followed by a multi-line group whose key has the same
+# name as one swept (clamp_a.gamma_deg / shape.gamma_deg): the text scanner of the old sweep
+# took c_beta and clamp_a.gamma_deg for arrays here.  Otherwise the deck is uh60_part2_modal
+# (clamp A's frame at its default orientation).
+ONE_LINE_DECK = """\
+&case name = 'one_line', analysis = 'modal' /
+&chain n_bodies = 11, total_length = 0.590, diameter = 0.015, total_mass = 0.313 /
+&clamp_a gamma_deg = 0.0, beta_deg = 0.0 /
+&springs c_beta = 35.531, c_gamma = 1.0e-4, d_beta = 5.0e-2, d_gamma = 1.0e-4 /
+&shape
+  gamma_deg = 90.0, 90.0, 9*0.0
+  beta_deg  = 70.0, 10*12.0
+/
+&clamp_b active = .true., position = -0.161, 0.430, -0.135, gamma_deg = 0.0, beta_deg = 200.0 /
+&loads gravity = 0.0, 0.0, -9.81 /
+"""
+
+
+def test_base_deck_with_one_line_groups(tmp_path, reference):
+    base = tmp_path / "one_line.nml"
+    base.write_text(ONE_LINE_DECK)
+    out = tmp_path / "one_line"
+    proc = cli("sweep", base, "--set", "springs.c_beta=10,20", "--set", "clamp_a.gamma_deg=0,10",
+               "--set", "loads.gravity(3)=-9.81", "--out", out, "--quiet", "--no-plots", "--jobs", "2")
+    assert proc.returncode == 0, proc.stderr
+    assert "4 points, 4 ok" in proc.stdout
+    rows = read_csv(out / "sweep.csv")
+    assert [(r["springs.c_beta"], r["clamp_a.gamma_deg"], r["loads.gravity(3)"]) for r in rows] == \
+        [("10", "0", "-9.81"), ("10", "10", "-9.81"), ("20", "0", "-9.81"), ("20", "10", "-9.81")]
+    for r in rows:
+        deck = read_deck(out / "decks" / f"{r['id']}.nml")
+        assert np.all(deck["springs.c_beta"] == float(r["springs.c_beta"]))
+        assert deck["clamp_a.gamma_deg"] == float(r["clamp_a.gamma_deg"])
+        # The rest of the one-line groups is the base deck's.
+        assert np.all(deck["springs.d_beta"] == 0.05) and deck["clamp_a.beta_deg"] == 0.0
+        assert list(deck["loads.gravity"]) == [0.0, 0.0, -9.81]
+        assert list(deck["clamp_b.position"]) == [-0.161, 0.430, -0.135]
+        assert list(deck["shape.beta_deg"]) == [70.0] + [12.0] * 10
+    # c_beta = 10 at clamp A's default frame is point 0003 of the reference sweep (1, 4, 7, 10):
+    # the same deck in another layout gives the same numbers (RTOL: same computation).
+    ref = read_csv(reference / "sweep.csv")[3]
+    assert ref["springs.c_beta"] == "10"
+    for col in ("f1_hz", "f2_hz", "f3_hz", "f1_damped_hz", "zeta1", "FB_z", "MA_x"):
+        assert math.isclose(float(rows[0][col]), float(ref[col]), rel_tol=RTOL), col
+
+
+# Imports pydriver, says so, then waits for a line on stdin before running the command line:
+# the test releases two of these together, so both sweeps start within microseconds.
+BARRIER_CLI = ("import sys; import pydriver.__main__ as cli; print('ready', flush=True); "
+               "sys.stdin.readline(); sys.exit(cli.main(sys.argv[1:]))")
+
+
+def test_concurrent_sweeps_into_one_directory(tmp_path):
+    # Two sweeps with different grids started at the same moment into one new directory: one
+    # runs, the other is refused before it writes anything, and every row of sweep.csv carries
+    # the parameter its run used.  Ten trials, the start order alternating; the race this
+    # guards against (manifest and decks written before the lock) showed in 1 of 12 trials
+    # without the barrier.
+    grids = {"springs.c_beta=37,38": ["37", "38"], "springs.c_beta=220,221,222": ["220", "221", "222"]}
+    for trial in range(10):
+        out = tmp_path / f"trial{trial}"
+        specs = list(grids) if trial % 2 == 0 else list(grids)[::-1]
+        procs = [subprocess.Popen([sys.executable, "-c", BARRIER_CLI, "sweep", str(BASE), "--set", spec,
+                                   "--out", str(out), "--quiet", "--no-plots", "--jobs", "1"],
+                                  stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                  text=True) for spec in specs]
+        for p in procs:
+            assert p.stdout.readline() == "ready\n"
+        for p in procs:
+            p.stdin.write("go\n")
+            p.stdin.flush()
+        # 120 s: each sweep is two or three modal runs of milliseconds plus ~1 s of start-up;
+        # the limit only turns a hang into a failure.
+        outputs = [p.communicate(timeout=120) for p in procs]
+        codes = [p.returncode for p in procs]
+        assert sorted(codes) == [0, 2], (trial, outputs)
+        winner = specs[codes.index(0)]
+        refused = outputs[codes.index(2)][1]
+        assert "another sweep is running" in refused or "holds another sweep" in refused, refused
+        assert json.loads((out / "sweep.json").read_text())["sets"] == [winner]
+        rows = read_csv(out / "sweep.csv")
+        assert [r["springs.c_beta"] for r in rows] == grids[winner] and all(r["error"] == "" for r in rows)
+        for r in rows:
+            used = json.loads((out / "runs" / r["id"] / "summary.json").read_text())["c_beta_Nm_per_rad"]
+            assert used == float(r["springs.c_beta"]), (trial, r["id"], used, r["springs.c_beta"])
+            assert np.all(read_deck(out / "decks" / f"{r['id']}.nml")["springs.c_beta"] == used)
+        assert sorted(p.name for p in (out / "runs").iterdir()) == [r["id"] for r in rows]
+        assert sorted(p.name for p in (out / "decks").iterdir()) == [f"{r['id']}.nml" for r in rows]
+
+
+MARK_VAR = "ROTORCABLE_TEST_SWEEP_MARK"
+
+
+def marked_processes(mark: str) -> dict:
+    """pid -> parent pid of the live processes (zombies left out) whose environment holds
+    MARK_VAR=mark: a process inherits it from the sweep started with it, whoever its parent
+    is by now."""
+    found = {}
+    for environ in Path("/proc").glob("[0-9]*/environ"):
+        try:
+            if f"{MARK_VAR}={mark}".encode() not in environ.read_bytes().split(b"\0"):
+                continue
+            stat_line = (environ.parent / "stat").read_text()
+        except OSError:                 # gone meanwhile, or another user's
+            continue
+        state, ppid = stat_line[stat_line.rindex(")") + 2:].split()[:2]
+        if state not in ("Z", "X"):
+            found[int(environ.parent.name)] = int(ppid)
+    return found
+
+
+@pytest.mark.skipif(not Path("/proc/self/environ").exists(), reason="finds processes through /proc")
+def test_killed_sweep_leaves_no_processes(tmp_path):
+    mark = uuid.uuid4().hex
+    out = tmp_path / "killed"
+    # Decay runs of 5-8 s simulated time (seconds each): the workers are inside a deck when
+    # the sweep process is killed.
+    proc = subprocess.Popen([sys.executable, "-m", "pydriver", "sweep", str(INPUTS / "uh60_part2_decay.nml"),
+                             "--set", "solver.t_end=5,6,7,8", "--out", str(out), "--quiet", "--no-plots",
+                             "--jobs", "2"], env=dict(os.environ, **{MARK_VAR: mark}),
+                            start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        # 120 s for the sweep to start a deck: seconds normally, a hang otherwise.
+        deadline = time.monotonic() + 120
+        while True:
+            assert proc.poll() is None and time.monotonic() < deadline, "no deck started"
+            procs = marked_processes(mark)
+            # Workers are forks of the forkserver, itself a child of the sweep process.
+            workers = [p for p, parent in procs.items() if parent in procs and parent != proc.pid]
+            if workers and list((out / "runs").glob(".*")):     # a deck in flight
+                break
+            time.sleep(0.01)
+        assert len(procs) >= 3, procs           # the sweep, its forkserver, a worker at least
+        os.kill(proc.pid, signal.SIGKILL)       # the sweep process only, not its group
+        proc.wait(timeout=10)                   # reaped at once; 10 s only bounds a failure
+        # 5 s: the kernel signal and the pipe's end-of-file act within milliseconds; the rest
+        # is slack for a loaded machine.
+        deadline = time.monotonic() + 5
+        while marked_processes(mark) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not marked_processes(mark), f"alive after the sweep was killed: {marked_processes(mark)}"
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)             # whatever is left of a failure
+        proc.wait()
+
+
+def test_sweep_files_follow_the_umask(tmp_path):
+    # Results are for others to read: no file of a sweep may be created 0600 (mkstemp) or a
+    # directory 0700 (mkdtemp); with umask 027 every file is 0640 (the Slurm script 0750)
+    # and every directory 0750, as plain open() and mkdir() give.
+    out, slurm = tmp_path / "run", tmp_path / "slurm"
+    proc = cli("sweep", BASE, "--set", "springs.c_beta=35.531,-1", "--out", out, "--quiet", "--jobs", "2",
+               umask=0o027)
+    assert proc.returncode == 1 and "1 ok, 1 failed" in proc.stdout, proc.stderr   # an error.json too
+    assert cli("sweep", BASE, "--set", "springs.c_beta=1,2", "--out", slurm, "--slurm",
+               umask=0o027).returncode == 0
+    paths = [out, slurm, *out.rglob("*"), *slurm.rglob("*")]
+    assert {p.name for p in paths} >= {"sweep.json", ".sweep.lock", "0000.nml", "summary.json", "error.json",
+                                       "sweep.csv", "f1_hz_vs_springs.c_beta.png", "sweep.slurm"}
+    for p in paths:
+        want = 0o750 if p.is_dir() or p.name == "sweep.slurm" else 0o640
+        assert stat.S_IMODE(p.stat().st_mode) == want, (p, oct(p.stat().st_mode))

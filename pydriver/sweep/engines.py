@@ -1,0 +1,192 @@
+"""Execution engines of a sweep: a local process pool, a Dask scheduler, a Slurm job array.
+
+All three run the same per-deck task, :func:`pydriver.sweep.records.run_task`, on the decks
+of a prepared sweep directory.  The pool and Dask engines take ``tasks`` as
+``(id, deck, run_dir)`` tuples and report each finished task to ``done(id, exception, future)``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import os
+import shlex
+import sys
+from pathlib import Path
+
+from pydriver.sweep import lifeline
+from pydriver.sweep.directory import open_sweep
+from pydriver.sweep.errors import SweepError
+from pydriver.sweep.files import write_atomic
+from pydriver.sweep.records import read_record, run_task
+
+# Thread-count variables of the BLAS libraries numpy and the Fortran core may link.
+BLAS_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def default_jobs() -> int:
+    """Cores this process may use (respects Slurm/cgroup CPU sets, unlike os.cpu_count())."""
+    if hasattr(os, "process_cpu_count"):
+        return os.process_cpu_count() or 1
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0)) or 1
+    return os.cpu_count() or 1
+
+
+@contextlib.contextmanager
+def _single_threaded_blas():
+    """Environment for starting pool workers: one BLAS thread each, unless the user chose.
+
+    One deck per core already fills the machine, so BLAS threads would only oversubscribe
+    it.  It also makes the numbers independent of the engine: a multithreaded OpenBLAS sums
+    in another order (differences of ~1e-14 in the frequencies), and Dask's nanny starts its
+    workers with these variables set to 1, so the pool does the same.
+    """
+    saved = {k: os.environ.get(k) for k in BLAS_THREAD_VARS}
+    for k in BLAS_THREAD_VARS:
+        os.environ.setdefault(k, "1")
+    try:
+        yield
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+
+
+def _mp_context():
+    import multiprocessing as mp
+    # Not "fork": the parent may hold threads (tqdm's monitor, BLAS, a Dask client), and
+    # forking a threaded process can deadlock; its BLAS would also keep the parent's thread
+    # count.  forkserver forks workers from a clean single-threaded server; spawn where it
+    # is unavailable.
+    if "forkserver" not in mp.get_all_start_methods():
+        return mp.get_context("spawn")
+    ctx = mp.get_context("forkserver")
+    # The server imports pydriver once and every worker is a fork of it, instead of each
+    # worker importing numpy and the core (~0.3 s start-up per pool); the preload module also
+    # ties the server to this process (lifeline).  '__main__' is the default preload, kept.
+    # Takes effect when the server starts (first pool of the process).
+    ctx.set_forkserver_preload(["__main__", "pydriver.sweep.forkserver_preload"])
+    return ctx
+
+
+def run_pool(tasks: list, jobs: int, done) -> None:
+    """Run the tasks on a local pool of ``jobs`` worker processes (one deck per task).
+
+    Ctrl-C cancels the decks not started; the ones running finish and keep their records, then
+    KeyboardInterrupt is raised again.  Workers die with this process (:mod:`lifeline`).
+    """
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+    with _single_threaded_blas(), lifeline.sweep_process_mark(), \
+            ProcessPoolExecutor(max_workers=min(jobs, len(tasks)), mp_context=_mp_context(),
+                                initializer=lifeline.worker_init) as pool:
+        # Workers start during these submits (forkserver/spawn start them on demand), so
+        # they inherit the environment set above.
+        futures = {pool.submit(run_task, deck, run_dir): id_ for id_, deck, run_dir in tasks}
+        try:
+            for fut in as_completed(futures):
+                done(futures[fut], fut.exception(), fut)
+        except KeyboardInterrupt:
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
+
+
+def run_dask(tasks: list, address: str, done) -> None:
+    """Run the tasks on the Dask scheduler at ``address`` (workers share the file system).
+
+    Raises
+    ------
+    SweepError
+        dask.distributed missing, or no scheduler at ``address``.
+    """
+    try:
+        from distributed import Client, as_completed
+    except ImportError:
+        raise SweepError("--dask needs dask.distributed (pip install 'dask[distributed]')") from None
+    try:
+        # 20 s: a scheduler on a busy login node may take seconds to answer; a wrong address
+        # should still fail before the user gives up on it.
+        client = Client(address, timeout="20s")
+    except OSError as exc:
+        raise SweepError(f"--dask {address}: cannot connect to the Dask scheduler: {exc}") from None
+    token = os.urandom(4).hex()
+    try:
+        futures = client.map(run_task, [str(d) for _, d, _ in tasks], [str(r) for _, _, r in tasks],
+                             key=[f"rotorcable-{id_}-{token}" for id_, _, _ in tasks], pure=False)
+        ids = {f.key: id_ for f, (id_, _, _) in zip(futures, tasks)}
+        try:
+            for fut in as_completed(futures):
+                done(ids[fut.key], fut.exception(), fut)
+        except KeyboardInterrupt:
+            # Dask cannot stop a running task: those finish and write their records.
+            client.cancel(futures)
+            raise
+    finally:
+        client.close()
+
+
+def _array_spec(indices: list[int]) -> str:
+    """Slurm --array text for a sorted index list: 0-23, or 3,7-9 for a partial resume."""
+    parts = []
+    for _, grp in itertools.groupby(enumerate(indices), lambda t: t[1] - t[0]):
+        g = [i for _, i in grp]
+        parts.append(str(g[0]) if len(g) == 1 else f"{g[0]}-{g[-1]}")
+    return ",".join(parts)
+
+
+def write_slurm(base, sets: list[str], out) -> tuple[Path, list[str]]:
+    """Write the decks, the manifest and a Slurm job-array script ``DIR/sweep.slurm``.
+
+    Nothing is run.  Array task ``i`` runs grid point ``i`` with
+    ``python -m pydriver sweep-task DIR i`` (the same ``run_task`` as the local pool), in
+    the Python environment of ``sys.executable``; points that already have a record are
+    left out of the array.
+
+    Parameters
+    ----------
+    base, sets, out
+        As for ``run_sweep``.
+
+    Returns
+    -------
+    script : Path
+        ``DIR/sweep.slurm``.
+    commands : list of str
+        The ``sbatch`` command and the aggregation command to run afterwards.
+
+    Raises
+    ------
+    SweepError
+        As ``run_sweep``.
+    """
+    out = Path(out).resolve()
+    with open_sweep(base, sets, out) as manifest:
+        todo = [i for i, p in enumerate(manifest["points"])
+                if read_record(out / "runs" / p["id"]) is None]
+        (out / "slurm").mkdir(exist_ok=True)
+        q = shlex.quote
+        py = sys.executable
+        venv = ""
+        if sys.prefix != sys.base_prefix:
+            venv = f"source {q(str(Path(sys.prefix) / 'bin' / 'activate'))}\n"
+        collect_cmd = f"{q(py)} -m pydriver sweep-collect {q(str(out))}"
+        array = _array_spec(todo) if todo else "0"
+        script = f"""#!/bin/bash
+# rotorcable sweep {out.name}: one deck per array task ({len(todo)} of {len(manifest['points'])} points).
+# Written by `python -m pydriver sweep --slurm`; add the #SBATCH lines your site needs
+# (--partition, --account, --time) before submitting.  DIR must be on a shared file system.
+#   submit:                 sbatch {out / 'sweep.slurm'}
+#   when all tasks are done: {collect_cmd}
+#SBATCH --job-name=rc-sweep-{out.name}
+#SBATCH --array={array}
+#SBATCH --ntasks=1
+#SBATCH --cpus-per-task=1
+#SBATCH --output={out / 'slurm'}/%A_%a.out
+set -eo pipefail
+{venv}# One core per task: keep BLAS single-threaded.
+export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1
+{q(py)} -m pydriver sweep-task {q(str(out))} "$SLURM_ARRAY_TASK_ID"
+"""
+        path = out / "sweep.slurm"
+        write_atomic(path, script, mode=0o777)       # executable, as far as the umask allows
+    return path, [f"sbatch {q(str(path))}", collect_cmd]

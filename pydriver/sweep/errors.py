@@ -1,0 +1,5 @@
+"""The one exception of the sweep layer (a deck that fails is a record, not an exception)."""
+
+
+class SweepError(ValueError):
+    """A sweep that cannot start: bad ``--set`` option, first deck invalid, directory mismatch."""

@@ -1,0 +1,75 @@
+"""Plots of a sweep: ``DIR/plots/<result>_vs_<parameter>.png``, one per main result and
+swept parameter, one line per combination of the other parameters."""
+
+from __future__ import annotations
+
+import io
+import re
+from pathlib import Path
+
+import numpy as np
+
+from pydriver.sweep.files import write_atomic
+from pydriver.sweep.table import REACTION_COLUMNS
+
+PLOT_RESULTS = ["f1_hz", "f1_damped_hz", "zeta1"] + REACTION_COLUMNS
+
+
+def plot_sweep(out, table: dict, params: list, scales: dict) -> list[Path]:
+    """Draw the plots of a sweep into ``out/plots/`` (each file written atomically).
+
+    Parameters
+    ----------
+    out : Path
+        Sweep directory.
+    table : dict of numpy arrays
+        The ``sweep.csv`` columns (:func:`pydriver.sweep.table.rows_to_table`).
+    params : list of str
+        Swept parameters; those with non-numeric values get no plot.
+    scales : dict
+        Parameter -> ``"log"`` (log x axis) or ``"linear"``.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
+    from pydriver.plots import _plt  # the project's matplotlib set-up (Agg backend)
+    plt = _plt()
+    plots = Path(out) / "plots"
+    plots.mkdir(exist_ok=True)
+    ok = table["error"] == ""
+    written = []
+    for p in params:
+        x = table[p]
+        if x.dtype.kind != "f":
+            continue                                    # non-numeric parameter (strings)
+        others = [q for q in params if q != p]
+        labels = [tuple(str(table[q][i]) for q in others) for i in range(len(x))]
+        groups = sorted(set(labels))
+        for name in PLOT_RESULTS:
+            y = table.get(name)
+            if y is None or not np.any(np.isfinite(y[ok])):
+                continue
+            fig, ax = plt.subplots(figsize=(6.5, 4))
+            for g in groups:
+                sel = ok & np.array([lab == g for lab in labels], dtype=bool)
+                order = np.argsort(x[sel])
+                label = ", ".join(f"{q} = {v}" for q, v in zip(others, g)) or None
+                ax.plot(x[sel][order], y[sel][order], "o-", ms=3, label=label)
+            if scales.get(p) == "log":
+                ax.set_xscale("log")
+            ax.set_xlabel(p)
+            ax.set_ylabel(name)
+            ax.grid(True)
+            if others and len(groups) <= 8:
+                ax.legend(fontsize=7)
+            fig.suptitle(f"{name} against {p}", fontsize=10)
+            png = io.BytesIO()
+            fig.savefig(png, format="png", dpi=110)
+            plt.close(fig)
+            # File names without the parentheses of element keys (loads.gravity(3)).
+            final = plots / (re.sub(r"[^\w.-]", "_", f"{name}_vs_{p}") + ".png")
+            write_atomic(final, png.getvalue())
+            written.append(final)
+    return written

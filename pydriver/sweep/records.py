@@ -1,0 +1,128 @@
+"""Per-deck records of a sweep: ``DIR/runs/<id>/`` and the manifest ``DIR/sweep.json``.
+
+A record is the directory of one finished deck: the files of ``python -m pydriver run``
+(``summary.json`` last), or ``error.json`` for a deck that failed.  It is made in a hidden
+temporary directory and renamed to ``runs/<id>`` when complete, so a sweep killed at any
+moment leaves either a whole record or none, and a rerun skips the ids that have one.
+:func:`run_task` makes one record; it is the task of every engine (local pool, Dask, Slurm).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from pathlib import Path
+
+from pydriver.run import run_deck
+from pydriver.sweep.errors import SweepError
+from pydriver.sweep.files import make_hidden_dir, write_atomic
+
+MANIFEST = "sweep.json"
+
+
+def read_manifest(out) -> dict:
+    """The manifest ``DIR/sweep.json`` of a sweep directory.
+
+    Raises
+    ------
+    FileNotFoundError
+        ``out`` holds no manifest.
+    """
+    path = Path(out) / MANIFEST
+    if not path.is_file():
+        raise FileNotFoundError(f"{out}: not a sweep directory (no {MANIFEST})")
+    return json.loads(path.read_text())
+
+
+def read_record(run_dir) -> dict | None:
+    """The record of one finished run: ``{"summary": dict}`` or ``{"error": str}``.
+
+    Returns None when the run has not finished (no ``summary.json`` nor ``error.json``).
+    Records appear atomically (the run directory is renamed into place complete), so a
+    record that exists is whole.
+    """
+    run_dir = Path(run_dir)
+    if (run_dir / "summary.json").is_file():
+        return {"summary": json.loads((run_dir / "summary.json").read_text())}
+    if (run_dir / "error.json").is_file():
+        return {"error": json.loads((run_dir / "error.json").read_text())["error"]}
+    return None
+
+
+def run_task(deck, run_dir) -> dict:
+    """Run one deck and store its record in ``run_dir``: the task of every engine.
+
+    Parameters
+    ----------
+    deck : str or Path
+        The deck (absolute path when run on a cluster).
+    run_dir : str or Path
+        Record directory ``DIR/runs/<id>``; it appears complete or not at all.
+
+    Returns
+    -------
+    dict
+        ``{"id", "error", "skipped"}``: ``error`` is None or ``"DeckError: ..."`` /
+        ``"RunError: ..."``; ``skipped`` is True when a record already existed.
+
+    Notes
+    -----
+    Any exception of the run is recorded in ``error.json`` instead of raised, so one failed
+    deck does not stop the others.  If two tasks finish the same id (a requeued Slurm task),
+    the first record stays and the second is discarded.
+    """
+    deck, run_dir = Path(deck), Path(run_dir)
+    done = read_record(run_dir)
+    if done is not None:
+        return {"id": run_dir.name, "error": done.get("error"), "skipped": True}
+    run_dir.parent.mkdir(parents=True, exist_ok=True)
+    tmp = make_hidden_dir(run_dir.parent, run_dir.name)
+    try:
+        try:
+            run_deck(deck, out=tmp)
+            error = None
+        except Exception as exc:  # noqa: BLE001 (recorded, not raised: see Notes)
+            error = f"{type(exc).__name__}: {exc}"
+            write_atomic(tmp / "error.json", json.dumps(
+                {"id": run_dir.name, "deck": str(deck), "error": error}, indent=1) + "\n")
+        try:
+            # rename() onto an existing non-empty directory fails: the first record stays.
+            os.rename(tmp, run_dir)
+        except OSError:
+            if read_record(run_dir) is None:
+                raise
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)      # gone already after the rename
+    return {"id": run_dir.name, "error": error, "skipped": False}
+
+
+def run_point(out, index: int) -> dict:
+    """Run grid point ``index`` of the sweep in ``out`` (a Slurm array task).
+
+    Skips the point if it has a record already, so a requeued or repeated task is harmless.
+
+    Parameters
+    ----------
+    out : str or Path
+        A prepared sweep directory.
+    index : int
+        Grid point index (``$SLURM_ARRAY_TASK_ID``).
+
+    Returns
+    -------
+    dict
+        As :func:`run_task`.
+
+    Raises
+    ------
+    SweepError
+        ``index`` outside the grid.
+    """
+    out = Path(out).resolve()
+    manifest = read_manifest(out)
+    points = manifest["points"]
+    if not 0 <= index < len(points):
+        raise SweepError(f"{out}: task index {index} outside the grid 0-{len(points) - 1}")
+    id_ = points[index]["id"]
+    return run_task(out / "decks" / f"{id_}.nml", out / "runs" / id_)
