@@ -18,14 +18,17 @@ RNG = np.random.default_rng(20131122)
 
 def reference_from_deck(path, first_clamped, n, length, radius, mass, angles_deg, c, d, rest,
                         clamp=False, omega=0.0, offset=(0.0, 0.0)):
+    # &loads rotor_rpm/rotor_offset is the hub frame turning about the z axis through
+    # -rotor_offset (docs/model.md, "Rotor and hub frame"): the reference's hub=True.
     locked = np.zeros(n, bool)
     locked[0] = first_clamped
     cmat = np.tile(c, (n, 1))
     dmat = np.tile(d, (n, 1))
     return ref.ChainModel(L=np.full(n, length), R=np.full(n, radius), m=np.full(n, mass),
                           locked=locked, locked_angles=np.radians(angles_deg), c=cmat, d=dmat,
-                          rest=np.radians(rest), omega_rotor=omega,
-                          rotor_offset=np.asarray(offset, float), clamp_B=clamp)
+                          rest=np.radians(rest), clamp_B=clamp, hub=omega != 0.0,
+                          rotor=ref.RotorSpeed(omega=omega) if omega else None,
+                          rotor_centre=-np.array([offset[0], offset[1], 0.0]))
 
 
 def project(path, q, v):
@@ -42,7 +45,8 @@ def project(path, q, v):
 
 @pytest.fixture(scope="module")
 def open_chain(tmp_path_factory):
-    """Three-body pivot chain with springs, dampers, a rotor field and an offset rotor centre."""
+    """Three-body pivot chain with springs, dampers, a turning hub frame (centrifugal,
+    Coriolis, Euler's body couples) and an offset rotor centre."""
     p = tmp_path_factory.mktemp("k") / "open.nml"
     edit_deck(INPUTS / "three_body.nml", p, "loads", {"rotor_rpm": "60.0", "rotor_offset": "0.1, 0.2, 0.0"})
     n, ltot, dia, mtot = 3, 0.336, 0.0086, 0.153
@@ -153,8 +157,7 @@ def test_energy_matches_reference(open_chain):
     q = RNG.uniform(-2, 2, 6)
     v = RNG.normal(0, 2, 6)
     e = pydriver.evaluate_model(path, q, v)
-    # The reference has no centrifugal potential; add -m w^2 r^2 / 2 at each CM.
-    kin = ref.kinematics(model, q)
-    cent = sum(-0.5 * model.m[j] * model.omega_rotor**2
-               * np.sum((kin["c"][j, :2] + model.rotor_offset) ** 2) for j in range(3))
-    assert e["energy"] == pytest.approx(ref.energy(model, q, v) + cent, rel=1e-12, abs=1e-14)
+    # Jacobi integral in the hub frame: relative kinetic energy + springs + gravity + the
+    # centrifugal potential of the point masses and of the bodies' rotational inertia.
+    parts = ref.energy_parts(model, q, v)
+    assert e["energy"] == pytest.approx(parts["kinetic"] + parts["potential"], rel=1e-12, abs=1e-14)
