@@ -192,13 +192,14 @@ class CoreModel:
     def sample(self, t, q, v) -> dict:
         """Output quantities at the states q, v (nq, nt) and times t (nt)."""
         t = _reals(t)
-        (wr, kin, pot, gmax, angles, cm, joints, axial, shear, bending, torsion, bend, psi, lam, sup, stat, key,
-         msg) = _api.rc_sample(self.handle, t, np.asfortranarray(q, float), np.asfortranarray(v, float),
+        (wr, kin, pot, gmax, angles, cm, joints, axial, shear, bending, torsion, bend, moment_xy, bend_xy, psi, lam,
+         sup, stat, key, msg) = _api.rc_sample(self.handle, t, np.asfortranarray(q, float), np.asfortranarray(v, float),
                                self.n_bodies, max(self.nc, 1))
         _raise(self.deck, stat, key, msg)
         return {"wrenches": wr.T, "kinetic": kin, "potential": pot, "g_max": gmax, "angles": angles,
                 "cm": cm, "joints": joints, "axial": axial.T, "shear": shear.T, "bending": bending.T,
-                "torsion": torsion.T, "bend_angle": bend.T, "psi": psi, "lambda": lam[:self.nc].T,
+                "torsion": torsion.T, "bend_angle": bend.T, "moment_xy": np.moveaxis(moment_xy, 2, 0),
+                "bend_xy": np.moveaxis(bend_xy, 2, 0), "psi": psi, "lambda": lam[:self.nc].T,
                 "support_velocities": sup.T}
 
     # -- probes (tests and benchmarks) ----------------------------------------------------

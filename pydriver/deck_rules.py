@@ -29,6 +29,8 @@ def check(deck: Deck) -> None:
     _rotor(deck)
     _blade(deck)
     _output_times(deck)
+    _fatigue(deck)
+    _refinement(deck)
 
 
 def _one_of(deck: Deck, keys: list[str], what: str):
@@ -190,3 +192,24 @@ def _output_times(deck: Deck):
     if not math.isfinite(n) or n + 1 > MAX_SAMPLES:
         deck.fail("solver", "dt_out", f"t_end / dt_out = {n:.3g} output samples: more than {MAX_SAMPLES:.0e}; "
                                       "choose a larger dt_out")
+
+
+def _fatigue(deck: Deck):
+    if "fatigue" not in deck.groups:
+        return
+    for key in ("sn_exponent", "sn_reference_amplitude", "sn_reference_cycles"):
+        if not deck.has(f"fatigue.{key}"):
+            deck.fail("fatigue", key, "is required: the S-N curve has no default (it is the cable's, from its "
+                                      "fatigue tests)")
+
+
+def _refinement(deck: Deck):
+    if deck["refinement.levels"] == 1:
+        return
+    if "cable" not in deck.groups:
+        deck.fail("refinement", "levels", "refining n needs the physical cable parameters (&cable "
+                                          "bending_stiffness, ...), not the thesis's per-joint constants")
+    if deck["case.analysis"] == "campbell":
+        deck.fail("refinement", "levels", "a Campbell diagram is not refined (refine its modal runs instead)")
+    if deck.has("chain.body_length"):
+        deck.fail("chain", "body_length", "refinement subdivides a uniform chain: give total_length")

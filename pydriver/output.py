@@ -195,14 +195,22 @@ def format_table(result) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _cell(value, integer: bool) -> str:
+    """One CSV cell; None (e.g. the life of a joint that takes no damage) is an empty cell."""
+    if value is None:
+        return ""
+    if isinstance(value, str):                     # a name: quoted as RFC 4180 wants
+        return '"' + value.replace('"', '""') + '"' if any(c in value for c in ',"\n') else value
+    return str(int(value)) if integer else _fmt(value)
+
+
 def _write_csv(path: Path, columns: dict, int_columns=("body", "mode", "joint")):
     names = list(columns)
     with open(path, "w", encoding="utf-8", newline="\n") as fh:
         fh.write(",".join(names) + "\n")
         n = len(columns[names[0]]) if names else 0
         for i in range(n):
-            fh.write(",".join(str(int(columns[c][i])) if c in int_columns else _fmt(columns[c][i])
-                              for c in names) + "\n")
+            fh.write(",".join(_cell(columns[c][i], c in int_columns) for c in names) + "\n")
 
 
 def write_files(result, run_dir: RunDirectory, plots: bool = False) -> None:

@@ -27,8 +27,19 @@ def legibility_problems(fig) -> list[str]:
     legends, annotations; by more than 1 pixel), and axes without a unit on an axis label."""
     fig.canvas.draw()
     renderer = fig.canvas.get_renderer()
-    texts = [t for t in fig.findobj(match=lambda a: hasattr(a, "get_text") and hasattr(a, "get_window_extent"))
-             if t.get_visible() and t.get_text().strip() and t.figure is fig]
+    from matplotlib.axis import Axis
+    from matplotlib.text import Text
+    # Tick labels only where the axis draws a tick (inside its view interval): matplotlib keeps
+    # label artists of ticks beyond the limits, which are visible in name only.
+    tick_labels, drawn = set(), []
+    for axis in fig.findobj(match=Axis):
+        for tick in axis.get_major_ticks() + axis.get_minor_ticks():
+            tick_labels.update((id(tick.label1), id(tick.label2)))
+        if axis.axes.get_visible():
+            drawn += [lab for tick in axis._update_ticks() for lab in (tick.label1, tick.label2)]
+    others = [t for t in fig.findobj(match=Text) if id(t) not in tick_labels]
+    # Text artists only: a legend's TextArea wraps a Text that findobj also returns.
+    texts = [t for t in others + drawn if t.get_visible() and t.get_text().strip() and t.figure is fig]
     boxes = [(t, t.get_window_extent(renderer).expanded(1.0, 1.0).padded(-1.0)) for t in texts]
     problems = []
     for i in range(len(boxes)):
@@ -36,16 +47,50 @@ def legibility_problems(fig) -> list[str]:
             if boxes[i][1].overlaps(boxes[j][1]):
                 problems.append(f"'{boxes[i][0].get_text()}' overlaps '{boxes[j][0].get_text()}'")
     for ax in fig.axes:
-        labels = [ax.get_xlabel(), ax.get_ylabel()] + ([ax.get_zlabel()] if hasattr(ax, "get_zlabel") else [])
-        if not ax.get_visible() or not any(labels):
-            continue                                  # colour bars, legends-only axes
-        for lab in labels:
-            if "[" not in lab:
-                problems.append(f"axis label without unit: '{lab}'")
+        if not ax.get_visible() or not ax.axison:
+            continue
+        for axis in (ax.xaxis, ax.yaxis) + ((ax.zaxis,) if hasattr(ax, "zaxis") else ()):
+            numbered = any(t.get_visible() and t.get_text() for t in axis.get_ticklabels())
+            label = axis.get_label().get_text()
+            # An axis that shows numbers needs a label with a unit; one sharing its neighbour's
+            # numbers (sharex, tick labels hidden) needs none.
+            if numbered and "[" not in label:
+                problems.append(f"axis without a unit in its label: '{label}'")
     return problems
 
 
+def _declutter_3d(fig, rounds: int = 6):
+    """Resolve the collisions a 3-D view makes at drawing time (where its projection puts tick
+    labels is known only then): a tick label meeting another axis's tick label at a corner is
+    hidden; an axis label meeting tick labels moves out."""
+    from mpl_toolkits.mplot3d import Axes3D
+    for ax in [a for a in fig.axes if isinstance(a, Axes3D)]:
+        axes = (ax.xaxis, ax.yaxis, ax.zaxis)
+        for _ in range(rounds):
+            fig.canvas.draw()
+            r = fig.canvas.get_renderer()
+            ticks = [(axis, lab, lab.get_window_extent(r)) for axis in axes for tick in axis._update_ticks()
+                     for lab in (tick.label1,) if lab.get_visible() and lab.get_text()]
+            moved = False
+            for axis in axes:
+                box = axis.label.get_window_extent(r)
+                if any(b.overlaps(box) for _, _, b in ticks):
+                    axis.labelpad += 4
+                    moved = True
+            for i, (ax_i, lab_i, b_i) in enumerate(ticks):
+                for ax_j, lab_j, b_j in ticks[i + 1:]:
+                    if ax_i is not ax_j and lab_i.get_visible() and b_i.overlaps(b_j):
+                        lab_j.set_visible(False)
+            if not moved:
+                break
+
+
 def _save(fig, out: Path, name: str) -> str:
+    _declutter_3d(fig)
+    return _write(fig, out, name)
+
+
+def _write(fig, out: Path, name: str) -> str:
     plt = _plt()
     fig.savefig(Path(out) / name, dpi=110)
     plt.close(fig)
@@ -87,11 +132,12 @@ def _shape_axes(fig, tables: dict, clamped_b: bool = True):
         ax.plot(*p[0], "s", color=line.get_color(), ms=7)
         if clamped_b:
             ax.plot(*p[-1], "^", color=line.get_color(), ms=7)
-    ax.set_xlabel("x [m]", labelpad=8); ax.set_ylabel("y [m]", labelpad=8); ax.set_zlabel("z [m]", labelpad=10)
+    ax.set_xlabel("x [m]", labelpad=8); ax.set_ylabel("y [m]", labelpad=12); ax.set_zlabel("z [m]", labelpad=10)
     ax.set_box_aspect(None, zoom=0.8)                # room for the axis labels inside the panel
     from matplotlib.ticker import MaxNLocator
     for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
-        axis.set_major_locator(MaxNLocator(4))       # 3-D tick labels crowd otherwise
+        # 3-D tick labels crowd otherwise; y's first label sits in x's last one's corner.
+        axis.set_major_locator(MaxNLocator(4, prune="lower" if axis is ax.yaxis else None))
     ax.tick_params(labelsize=7)
     for k, (a, b) in enumerate(((1, 2), (0, 1))):
         ax2 = fig.add_subplot(grid[k + 1])
@@ -158,6 +204,29 @@ def plot_flight(result, out: Path):
     yield _save(fig, out, "shapes_vs_azimuth.png")
 
 
+def plot_envelopes(result, out: Path):
+    """Fatigue: per joint against arc length, the envelope (min, mean, max) of the bending
+    moment, jacket strain, torsion and axial force, and the damage per flight hour."""
+    plt = _plt()
+    s = result.summary
+    t = result.extra["tables"]["fatigue.csv"]
+    arc = np.asarray(t["arc_length_m"])
+    fig, ax = plt.subplots(5, 1, figsize=(8, 12), sharex=True, constrained_layout=True)
+    for a, (qty, label) in zip(ax, (("bending_Nm", "bending moment [Nm]"), ("strain", "jacket strain [-]"),
+                                    ("torsion_Nm", "torsional moment [Nm]"), ("axial_N", "axial force [N]"))):
+        lo, hi, mean = (np.asarray(t[f"{qty}_{k}"]) for k in ("min", "max", "mean"))
+        a.fill_between(arc, lo, hi, color="tab:blue", alpha=0.25, label="min ... max")
+        a.plot(arc, mean, "o-", ms=2.5, color="tab:blue", label="mean")
+        a.set_ylabel(label); a.grid(True)
+    ax[0].legend(fontsize=8)
+    damage = np.array([d for d in t["damage_per_hour"]], float)
+    ax[4].semilogy(arc[damage > 0], damage[damage > 0], "o-", ms=2.5, color="tab:red")
+    ax[4].set_ylabel("damage per flight hour [1/h]"); ax[4].grid(True, which="both", alpha=0.5)
+    ax[4].set_xlabel("arc length from clamp A [m]")
+    fig.suptitle(f"{s['case']}: loads along the cable and fatigue damage ({s['fatigue']['sn_quantity']} S-N curve)")
+    yield _save(fig, out, "envelopes.png")
+
+
 def plot_campbell(result, out: Path):
     """Campbell diagram: tracked modes against rotor speed, the k/rev lines, the lead-lag band,
     the operating range and the crossings in it."""
@@ -201,6 +270,8 @@ def _plots(result, out: Path):
         _shape_axes(fig, {s["case"]: _with_tip(result)}, clamped_b=s["n_constraints"] > 0)
         fig.suptitle(f"{s['case']}: the cable through its bodies' end points")
         yield _save(fig, out, "shape.png")
+    if "fatigue.csv" in result.extra.get("tables", {}):
+        yield from plot_envelopes(result, out)
     if s["analysis"] == "flight":
         yield from plot_flight(result, out)
         return

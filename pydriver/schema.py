@@ -197,6 +197,23 @@ def _keys() -> list[Key]:
             doc="free-stream air velocity in the inertial frame"))
     add(Key("drag", "forward_speed", "real", unit="m/s", default=0.0, **NONNEG,
             doc="forward flight speed along the inertial +x axis (adds -V e_x to the stream)"))
+    # &fatigue ------------------------------------------------------------------------------
+    add(Key("fatigue", "sn_quantity", "str", default="strain", choices=("strain", "bending"),
+            doc="what the S-N curve is written on: jacket surface strain [-] or bending moment [Nm]"))
+    add(Key("fatigue", "sn_exponent", "real", **POS, doc="Basquin exponent m of N = N_ref (S_a/S_ref)^-m"))
+    add(Key("fatigue", "sn_reference_amplitude", "real", unit="-, Nm", **POS,
+            doc="amplitude S_ref at which the S-N curve passes N_ref (unit of sn_quantity)"))
+    add(Key("fatigue", "sn_reference_cycles", "real", **POS, doc="cycles to failure N_ref at S_ref"))
+    add(Key("fatigue", "sn_endurance_amplitude", "real", unit="-, Nm", default=0.0, **NONNEG,
+            doc="amplitudes at or below this do no damage (0: no cut-off)"))
+    add(Key("fatigue", "circumferential_points", "int", default=24, low=4,
+            doc="points around the jacket at which each joint's cycles are counted (critical plane)"))
+    add(Key("fatigue", "hotspots", "int", default=5, low=1, doc="joints listed in the hotspot table"))
+    # &refinement ---------------------------------------------------------------------------
+    add(Key("refinement", "levels", "int", default=1, low=1, high=4,
+            doc="run n, 2n, 4n ... (levels runs, physical cable parameters) and extrapolate; 1 = off"))
+    add(Key("refinement", "expected_order", "real", default=2.0, **POS,
+            doc="order of the discretisation error in 1/n (Hencky chain: 2)"))
     # &solver ------------------------------------------------------------------------------
     add(Key("solver", "t_end", "real", unit="s", default=1.0, **POS, doc="end time of a dynamic run"))
     add(Key("solver", "dt_out", "real", unit="s", default=1.0e-2, **POS, doc="output interval"))
@@ -250,6 +267,8 @@ GROUP_DOCS = {
     "blade": "the blade's flap, lead-lag and pitch motion, carried by a support that moves with the blade",
     "campbell": "Campbell diagram: rotor speeds, operating range, tracked modes, harmonics",
     "drag": "aerodynamic drag by the cross-flow principle",
+    "fatigue": "fatigue per joint: S-N (Basquin) curve, rainflow around the jacket, hotspots",
+    "refinement": "converged numbers: the same cable at n, 2n, 4n bodies and Richardson extrapolation",
     "solver": "time integration, statics and output settings",
 }
 

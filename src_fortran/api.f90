@@ -357,7 +357,8 @@ contains
   !> Outputs at states (q, v) and times t: reactions, energies, constraint violation, shape,
   !> joint loads, rotor angle.
   subroutine rc_sample(handle, nt, t, nq, q, v, nb, ncd, wrenches, kinetic, potential, g_max, angles, cm, joints, &
-                       axial, shear, bending, torsion, bend_angle, psi, multipliers, supports, stat, key, msg)
+                       axial, shear, bending, torsion, bend_angle, moment_xy, bend_xy, psi, multipliers, supports, &
+                       stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
     integer(c_int), intent(in) :: nt, nq, nb      !< samples, coordinates, bodies
     integer(c_int), intent(in) :: ncd             !< max(1, nc)
@@ -372,6 +373,8 @@ contains
     real(c_double), intent(out) :: axial(nb, nt), shear(nb, nt)      !< joint forces [N]
     real(c_double), intent(out) :: bending(nb, nt), torsion(nb, nt)  !< joint moments [Nm]
     real(c_double), intent(out) :: bend_angle(nb, nt)   !< joint bending angles [rad]
+    real(c_double), intent(out) :: moment_xy(2, nb, nt) !< bending moment in the child's axes [Nm]
+    real(c_double), intent(out) :: bend_xy(2, nb, nt)   !< bend vector in the child's axes [rad]
     real(c_double), intent(out) :: psi(nt)        !< rotor angle [rad]
     real(c_double), intent(out) :: multipliers(ncd, nt)  !< lambda of eq. 3.55
     real(c_double), intent(out) :: supports(12, nt)      !< v_A, w_A, v_B, w_B relative to the frame
@@ -383,7 +386,7 @@ contains
     integer :: k, info
     wrenches = 0.0_dp; kinetic = 0.0_dp; potential = 0.0_dp; g_max = 0.0_dp; angles = 0.0_dp; cm = 0.0_dp
     joints = 0.0_dp; axial = 0.0_dp; shear = 0.0_dp; bending = 0.0_dp; torsion = 0.0_dp; bend_angle = 0.0_dp
-    psi = 0.0_dp; multipliers = 0.0_dp; supports = 0.0_dp
+    moment_xy = 0.0_dp; bend_xy = 0.0_dp; psi = 0.0_dp; multipliers = 0.0_dp; supports = 0.0_dp
     model => model_of(handle, error)
     if (error%code == 0) then
       do k = 1, nt
@@ -394,7 +397,8 @@ contains
                            'or a non-finite state)')
           exit
         end if
-        call joint_loads(model, axial(:, k), shear(:, k), bending(:, k), torsion(:, k), bend_angle(:, k))
+        call joint_loads(model, axial(:, k), shear(:, k), bending(:, k), torsion(:, k), bend_angle(:, k), &
+                         moment_xy(:, :, k), bend_xy(:, :, k))
         call shape_of(model, q(:, k), angles(:, :, k), cm(:, :, k), joints(:, :, k))
         call support_motion(model, supports(:, k))
         psi(k) = model%rs%psi

@@ -10,6 +10,7 @@ module rotorcable_sampling
   use rotorcable_model, only: model_type, solve_accelerations, eom_residual, kinetic_energy, stored_energy
   use rotorcable_kinematics, only: joint_angles
   use rotorcable_joint, only: thesis_angles
+  use rotorcable_rotations, only: cross
   use rotorcable_supports_clamp, only: clamp_support
   implicit none
   private
@@ -48,14 +49,20 @@ contains
   !> axial = -f.e (positive in tension: a parent pulls its child back along -e), shear =
   !> |f - (f.e) e|, torsion = n.e, bending = |n - (n.e) e|; bend angle = the angle between the
   !> parent's axis (the base frame's z for joint 1) and the child's, 0 at a locked joint.
-  subroutine joint_loads(model, axial, shear, bending, torsion, bend_angle)
+  !> Signed components for fatigue (a magnitude folds a reversing moment onto one sign and
+  !> halves its cycles): moment_xy = (n.e1, n.e2) and the bend vector kappa_xy = theta/sin(theta)
+  !> ((e_parent x e).e1, (e_parent x e).e2), both in the child's body axes e1, e2, so they
+  !> turn with the jacket when it twists (docs/model.md, "Fatigue").
+  subroutine joint_loads(model, axial, shear, bending, torsion, bend_angle, moment_xy, bend_xy)
     type(model_type), intent(in) :: model     !< model after sample_state
     real(dp), intent(out) :: axial(:)         !< (n) axial force [N]
     real(dp), intent(out) :: shear(:)         !< (n) shear force [N]
     real(dp), intent(out) :: bending(:)       !< (n) bending moment [Nm]
     real(dp), intent(out) :: torsion(:)       !< (n) torsional moment [Nm]
     real(dp), intent(out) :: bend_angle(:)    !< (n) bending angle [rad]
-    real(dp) :: e(3), e_parent(3), f(3), m(3)
+    real(dp), intent(out) :: moment_xy(:, :)  !< (2,n) bending moment in the child's axes [Nm]
+    real(dp), intent(out) :: bend_xy(:, :)    !< (2,n) bend vector in the child's axes [rad]
+    real(dp) :: e(3), e_parent(3), f(3), m(3), axis(3), s, theta, scale
     integer :: j
     e_parent = model%base_rot(:, 3)
     do j = 1, model%chain%n_bodies
@@ -66,8 +73,21 @@ contains
       shear(j) = norm2(f - dot_product(f, e)*e)
       torsion(j) = dot_product(m, e)
       bending(j) = norm2(m - dot_product(m, e)*e)
+      moment_xy(1, j) = dot_product(m, model%st%rot(:, 1, j))
+      moment_xy(2, j) = dot_product(m, model%st%rot(:, 2, j))
       bend_angle(j) = 0.0_dp
-      if (.not. model%chain%locked(j)) bend_angle(j) = acos(max(-1.0_dp, min(1.0_dp, dot_product(e_parent, e))))
+      bend_xy(:, j) = 0.0_dp
+      if (.not. model%chain%locked(j)) then
+        axis = cross(e_parent, e)
+        s = norm2(axis)
+        theta = atan2(s, dot_product(e_parent, e))
+        bend_angle(j) = theta
+        ! theta/sin(theta) -> 1 as theta -> 0; near theta = pi the axis itself is undefined.
+        scale = 1.0_dp
+        if (s > 1.0e-12_dp) scale = theta / s
+        bend_xy(1, j) = scale * dot_product(axis, model%st%rot(:, 1, j))
+        bend_xy(2, j) = scale * dot_product(axis, model%st%rot(:, 2, j))
+      end if
       e_parent = e
     end do
   end subroutine joint_loads

@@ -56,11 +56,13 @@ def test_jacobi_integral_is_conserved_at_constant_speed():
     hub + gravity + springs - centrifugal potential (Coriolis does no work) is conserved.  A
     0.02 s pulse from the hover equilibrium sets the cable swinging; over the 2 s after it, at
     rtol 1e-10, the drift stays below 1e-8 relative.  (Soft springs: undamped, the deck's own
-    would ring at up to ~1 kHz and only cost steps.)"""
+    would ring at up to ~1 kHz and only cost steps.  c_twist = 0.1, not less: with a softer twist
+    the hover equilibrium is found from only about half of the starts 1e-6 rad apart, so the
+    test would depend on the CPU's round-off.)"""
     m = variant({"case.analysis": "dynamic", "case.start": "equilibrium", "blade.flap_deg": 0.0,
                  "blade.lag_deg": 0.0, "blade.pitch_deg": 0.0, "loads.pulse_body": 6, "loads.pulse_force": "0.0, 2.0, 5.0",
                  "loads.pulse_end": 0.02, "solver.t_end": 2.02, "solver.dt_out": 0.01, "springs.d_beta": 0.0,
-                 "springs.d_twist": 0.0, "springs.c_twist": 0.01, "springs.c_beta": 2.0, "drag.forward_speed": 0.0, "drag.air_density": 1.0e-30, **TIGHT})
+                 "springs.d_twist": 0.0, "springs.c_twist": 0.1, "springs.c_beta": 2.0, "drag.forward_speed": 0.0, "drag.air_density": 1.0e-30, **TIGHT})
     res = pydriver.run_deck(m)
     after = res.timeseries["t"] >= 0.02
     e = res.extra["energy"][after]

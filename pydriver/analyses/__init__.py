@@ -6,7 +6,22 @@ from __future__ import annotations
 
 
 def run(model, run_dir=None):
-    """Run the deck's analysis; time series stream into ``run_dir`` (an output.RunDirectory)."""
+    """Run the deck's analysis; time series stream into ``run_dir`` (an output.RunDirectory).
+    With ``&refinement levels > 1`` the analysis runs at n, 2n, 4n ... bodies
+    (:mod:`pydriver.analyses.refinement`)."""
+    if model.deck["refinement.levels"] > 1:
+        from pydriver.analyses.refinement import run_refined
+        result = run_refined(model, run_dir, run_single)
+    else:
+        result = run_single(model, run_dir)
+    if "fatigue" in model.deck.groups and model.analysis not in ("flight", "dynamic"):
+        result.summary.setdefault("warnings", []).append(
+            f"&fatigue is not evaluated: analysis '{model.analysis}' has no load history (flight or dynamic has)")
+    return result
+
+
+def run_single(model, run_dir=None):
+    """Run the deck's analysis at the deck's n."""
     from pydriver.analyses import campbell, dynamics, flight, modal, statics
     analysis = model.analysis
     if analysis == "static":

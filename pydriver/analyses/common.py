@@ -44,6 +44,13 @@ def joint_columns(model, sample: dict, k=slice(None)) -> dict:
         out[f"torsion{n}_Nm"] = sample["torsion"][k, j]
         out[f"curvature{n}_1pm"] = kappa[..., j]
         out[f"strain{n}"] = 0.5 * geo["diameter"][j] * kappa[..., j]
+    # Signed components in the child's body axes (fatigue counts them around the jacket).
+    for j in range(model.n_bodies):
+        n = j + 1
+        out[f"moment_x{n}_Nm"] = sample["moment_xy"][k, 0, j]
+        out[f"moment_y{n}_Nm"] = sample["moment_xy"][k, 1, j]
+        out[f"kappa_x{n}_1pm"] = sample["bend_xy"][k, 0, j] / geo["length"][j]
+        out[f"kappa_y{n}_1pm"] = sample["bend_xy"][k, 1, j] / geo["length"][j]
     return out
 
 

@@ -44,6 +44,8 @@ def column_names(model) -> list[str]:
     names += [f"{q}{j + 1}_{u}" for j in range(nb) for q, u in
               (("axial", "N"), ("shear", "N"), ("bending", "Nm"), ("torsion", "Nm"), ("curvature", "1pm"))]
     names += [f"strain{j + 1}" for j in range(nb)]
+    names += [f"{q}{j + 1}_{u}" for j in range(nb) for q, u in
+              (("moment_x", "Nm"), ("moment_y", "Nm"), ("kappa_x", "1pm"), ("kappa_y", "1pm"))]
     return names
 
 
@@ -142,6 +144,13 @@ def dynamic_analysis(model, run_dir=None) -> Result:
     if writer is not None:
         result.files[writer.path.name] = run_dir.out / writer.path.name
     _decay(model, result)
+    if "fatigue" in model.deck.groups:
+        if timeseries is None:
+            raise DeckError(model.name, "fatigue", "sn_exponent", "fatigue of a run too large to keep in memory "
+                            "is not supported: a larger dt_out or a shorter t_end")
+        from pydriver.analyses.fatigue_loads import fatigue_of_run
+        summary["fatigue"], columns = fatigue_of_run(model, timeseries, periodic=False)
+        result.extra.setdefault("tables", {})["fatigue.csv"] = columns
     if timeseries is not None:
         beta = np.array([np.min(np.abs(np.sin(np.radians(timeseries[f"beta{j + 1}_deg"]))))
                          for j in range(model.n_bodies)])

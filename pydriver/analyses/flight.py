@@ -17,6 +17,7 @@ import numpy as np
 
 from pydriver.analyses.common import REACTION_NAMES, base_summary, reactions
 from pydriver.analyses.dynamics import chunk_columns
+from pydriver.analyses.fatigue_loads import fatigue_of_run
 from pydriver.analyses.statics import equilibrium
 from pydriver.errors import RunError
 from pydriver.output import TimeseriesWriter
@@ -89,5 +90,8 @@ def flight_analysis(model, run_dir=None) -> Result:
                    max_constraint_violation_m=float(np.max(ts["g_max_m"])) if model.nc else 0.0,
                    reactions=reactions(w_end, model.nc > 0), peaks=_peaks(model, ts),
                    n_samples=int(len(t_last)))
-    return Result(summary=summary, timeseries=ts, extra={"q": q_last.T, "shape_joints": sample["joints"]},
-                  files=files)
+    extra = {"q": q_last.T, "shape_joints": sample["joints"]}
+    if "fatigue" in model.deck.groups:
+        summary["fatigue"], columns = fatigue_of_run(model, ts, periodic=True)
+        extra["tables"] = {"fatigue.csv": columns}
+    return Result(summary=summary, timeseries=ts, extra=extra, files=files)

@@ -1,0 +1,135 @@
+"""Converged numbers: the same cable at n, 2n, 4n bodies and Richardson extrapolation.
+
+With the physical cable parameters (``&cable``) a deck describes a cable, not a chain: the
+joint constants follow from EI, GJ and the body length for any n (docs/model.md, "Per-body
+and physical parameters").  ``&refinement levels = 3`` (or ``rotorcable run --refine``) runs
+the deck at n, 2n and 4n bodies, each body of the deck split into equal parts, and reports
+every printed number (frequencies, reactions, peak loads, damage-equivalent loads) with its
+Richardson extrapolation, the observed order and an error estimate
+(:func:`pydriver.richardson.richardson`).  The written files are those of the finest run.
+
+How a deck is refined (:func:`refined_deck`): body j becomes k bodies of length l_j / k; the
+first keeps body j's start angles and rates, the other k - 1 continue it straight (relative
+angles 0), so the start polygon is the deck's own.  Per-body values (diameter, drag
+coefficient) are repeated; a deck that sets per-joint constants, per-body masses or lengths,
+or a force pulse on one body cannot be refined this way and is refused (deck_rules).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pydriver.richardson import richardson
+from pydriver.schema import GROUPS
+
+#: Relative size below which a quantity is taken to be zero by symmetry and not extrapolated
+#: (its differences between grids are round-off, whose "order" means nothing).
+NEGLIGIBLE = 1.0e-9
+
+
+def refined_deck(deck, factor: int):
+    """The deck with every body split into ``factor`` equal bodies."""
+    if factor == 1:
+        return deck
+    n = deck.n_bodies
+    changes = {"chain.n_bodies": n * factor, "refinement.levels": 1}
+    for group, keys in GROUPS.items():
+        for name, key in keys.items():
+            dotted = f"{group}.{name}"
+            if key.shape == "joint" and deck.has(dotted):
+                deck.fail(group, name, "per-joint values cannot be refined: give the cable's &cable parameters")
+            if key.shape != "body" or not deck.has(dotted):
+                continue
+            if dotted in ("chain.body_length", "chain.body_mass"):
+                deck.fail(group, name, "per-body lengths or masses cannot be refined: give total_length and "
+                                       "a mass per length")
+            values = np.asarray(deck[dotted], float)
+            if group == "shape":
+                fine = np.zeros(n * factor)
+                fine[::factor] = values                    # the first part keeps the joint's angles
+            else:
+                fine = np.repeat(values, factor)
+            changes[dotted] = fine.tolist()
+    if deck["loads.pulse_body"] > 0:
+        deck.fail("loads", "pulse_body", "a pulse on one body cannot be refined (the body changes with n)")
+    return deck.with_values(changes)
+
+
+def _scalars(summary: dict) -> dict:
+    """The printed numbers of a run that refinement extrapolates, by name."""
+    out = {}
+    for i, f in enumerate(summary.get("frequencies_hz", [])[:6]):
+        out[f"f{i + 1} [Hz]"] = f
+    if summary["analysis"] == "static":
+        for support, wrench in summary["reactions"].items():
+            for kind, unit in (("F", "N"), ("M", "Nm")):
+                for comp, value in zip("xyz", wrench[kind]):
+                    out[f"{kind}_{support} {comp} [{unit}]"] = value
+    peaks = summary.get("peaks", {})
+    for qty, unit in (("bending", "Nm"), ("torsion", "Nm"), ("axial", "N"), ("strain", "-")):
+        if qty in peaks:
+            out[f"peak {qty} [{unit}]"] = peaks[qty]["max_abs"]
+    for name, p in peaks.items():
+        if "min" in p:
+            out[f"{name} max |.|"] = max(abs(p["min"]), abs(p["max"]))
+    fat = summary.get("fatigue")
+    if fat:
+        top = fat["hotspots"][0]
+        out[f"DEL {fat['sn_quantity']}, worst joint"] = top["del_amplitude"]
+        for c in fat["clamp_loads"]:
+            out[f"DEL {c['quantity']}"] = c["del_amplitude"]
+    decay = summary.get("decay") or {}
+    if "f_damped_hz" in decay:
+        out["decay f_damped [Hz]"] = decay["f_damped_hz"]
+    return out
+
+
+def extrapolate(summaries: list, ns: list, expected_order: float) -> dict:
+    """summary['refinement'] from the summaries of the runs at ns = (n, 2n, 4n)."""
+    per_run = [_scalars(s) for s in summaries]
+    names = [k for k in per_run[-1] if all(k in p for p in per_run)]
+    quantities, warnings = {}, []
+    for name in names:
+        values = [float(p[name]) for p in per_run]
+        if max(abs(v) for v in values) <= NEGLIGIBLE * max(1.0, max(abs(float(x)) for x in per_run[-1].values())):
+            continue
+        if len(values) < 3:
+            quantities[name] = {"values": values}
+            continue
+        e = richardson(*values[-3:], expected_order=expected_order)
+        quantities[name] = {"values": values, "extrapolated": e.extrapolated, "observed_order": e.observed_order,
+                            "error_estimate": e.error_estimate, "warning": e.warning or ""}
+        if e.warning:
+            warnings.append(f"refinement, {name}: {e.warning}")
+    return {"n": ns, "expected_order": expected_order, "quantities": quantities}, warnings
+
+
+def refinement_table(refinement: dict) -> dict:
+    """refinement.csv: one row per quantity."""
+    q = refinement["quantities"]
+    names = list(q)
+    cols = {"quantity": names}
+    for i, n in enumerate(refinement["n"]):
+        cols[f"n{n}"] = [q[k]["values"][i] for k in names]
+    for key in ("extrapolated", "error_estimate", "observed_order"):
+        cols[key] = [q[k].get(key) for k in names]
+    return cols
+
+
+def run_refined(model, run_dir, analyse):
+    """Run ``analyse(model, run_dir)`` at n, 2n, 4n ...; the finest run's result with
+    summary['refinement'] added."""
+    from pydriver.model import Model
+    levels = int(model.deck["refinement.levels"])
+    models = [model if k == 0 else Model(refined_deck(model.deck, 2 ** k)) for k in range(levels)]
+    summaries = [analyse(m, None).summary for m in models[:-1]]
+    result = analyse(models[-1], run_dir)
+    summaries.append(result.summary)
+    ns = [m.n_bodies for m in models]
+    refinement, warnings = extrapolate(summaries, ns, float(model.deck["refinement.expected_order"]))
+    result.summary["refinement"] = refinement
+    result.summary["deck_n_bodies"] = model.n_bodies
+    if warnings:
+        result.summary.setdefault("warnings", []).extend(warnings)
+    result.extra.setdefault("tables", {})["refinement.csv"] = refinement_table(refinement)
+    return result
