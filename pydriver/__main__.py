@@ -24,6 +24,9 @@ def main(argv=None) -> int:
     run.add_argument("--report", action="store_true",
                      help="also write report.html: inputs, results and plots on one self-contained page")
     run.add_argument("--json", action="store_true", help="print summary.json instead of the readable summary")
+    run.add_argument("--refine", action="store_true",
+                     help="run the cable at n, 2n, 4n bodies and print every number with its Richardson "
+                          "extrapolation and error estimate (&refinement levels = 3; needs &cable)")
     study = sub.add_parser("study", help="UH-60 studies: figures 5.6/5.12, 5.9 and refinement")
     study.add_argument("name", choices=["shapes", "cy-sweep", "refine"],
                        help="shapes: rest vs hover plots; cy-sweep: frequency against c_y and the "
@@ -43,7 +46,11 @@ def main(argv=None) -> int:
     for deck in args.decks:
         out = Path(args.out) if args.out else Path("results") / Path(deck).stem
         try:
-            res = run_deck(deck, out=out, plots=args.plots, report=args.report)
+            target = deck
+            if args.refine:
+                from pydriver.model import Model
+                target = Model.from_deck(deck).with_changes({"refinement.levels": 3})
+            res = run_deck(target, out=out, plots=args.plots, report=args.report)
         except (DeckError, RunError) as exc:
             print(f"error: {exc}", file=sys.stderr)
             status = 1

@@ -172,10 +172,13 @@ def plot_flight(result, out: Path):
     nb = s["n_bodies"]
     fig, ax = plt.subplots(3, 1, figsize=(8, 9), sharex=True, constrained_layout=True)
     cmap = plt.get_cmap("viridis")
-    for j in range(nb):
-        ax[0].plot(az[order], ts[f"bending{j + 1}_Nm"][order], color=cmap(j / max(nb - 1, 1)),
-                   label=f"joint {j + 1}" if j in (0, nb // 2, nb - 1) else None)
-    ax[0].set_ylabel("bending moment [Nm]"); ax[0].legend(fontsize=7, ncol=3)
+    # At most 8 joints, evenly along the cable (44 lines are a blur), the most loaded among them.
+    shown = sorted(set(np.linspace(0, nb - 1, min(nb, 7)).round().astype(int))
+                   | {int(np.argmax([np.max(ts[f"bending{j + 1}_Nm"]) for j in range(nb)]))})
+    for j in shown:
+        ax[0].plot(az[order], ts[f"bending{j + 1}_Nm"][order], color=cmap(j / max(nb - 1, 1)), label=f"joint {j + 1}")
+    ax[0].set_ylabel("bending moment [Nm]")
+    ax[0].legend(fontsize=7, ncol=4, loc="upper left", bbox_to_anchor=(0.0, -0.02), frameon=False)
     for side in "AB":
         if f"F{side}_x" not in ts:
             continue

@@ -86,8 +86,14 @@ def observed_order(h, values) -> float:
     return float(np.log(abs((f1 - f2) / (f2 - f3))) / np.log(h[-3] / h[-2]))
 
 
-def run_study(name: str, out: Path, inputs: Path = Path("inputs")) -> str:
+#: The project's decks, found from any working directory (the package sits beside inputs/).
+INPUTS = Path(__file__).resolve().parent.parent / "inputs"
+
+
+def run_study(name: str, out: Path, inputs: Path = INPUTS) -> str:
     """Run a named study and write its CSV/JSON/PNG files into ``out``; returns a summary line."""
+    if not (Path(inputs) / "uh60_part2_modal.nml").is_file():
+        raise FileNotFoundError(f"the UH-60 decks are not in {inputs} (studies run from a source checkout)")
     import json
     from pydriver.plots import plot_frequency_vs_cy, plot_shapes
     out.mkdir(parents=True, exist_ok=True)

@@ -113,8 +113,9 @@ def fatigue_of_run(model, ts: dict, periodic: bool) -> tuple[dict, dict]:
                             "del_amplitude": fatigue.damage_equivalent_amplitude(cyc, sn.exponent,
                                                                                  record["n_equivalent"]),
                             **fatigue.envelope(ts[name])})
-    summary = {"description": f"Miner damage on N = {sn.reference_cycles:g} (S_a/{sn.reference_amplitude:g} "
-                              f"{unit})^-{sn.exponent:g} of the {f['sn_quantity']} at "
+    ref = f"{sn.reference_amplitude:g}" + (" Nm" if unit == "Nm" else "")
+    summary = {"description": f"Miner damage on N = {sn.reference_cycles:g} (S_a/{ref})^-{sn.exponent:g} of the "
+                              f"{f['sn_quantity']} at "
                               f"{int(f['circumferential_points'])} points around each joint, rainflow over "
                               f"{record['record']}; DEL amplitudes are {record['equivalent']}-equivalent",
                "sn_quantity": f["sn_quantity"], "unit": unit, "equivalent": record["equivalent"],

@@ -65,6 +65,8 @@ def _scalars(summary: dict) -> dict:
             for kind, unit in (("F", "N"), ("M", "Nm")):
                 for comp, value in zip("xyz", wrench[kind]):
                     out[f"{kind}_{support} {comp} [{unit}]"] = value
+    for comp, value in zip("xyz", summary.get("tip_m", ())):
+        out[f"tip {comp} [m]"] = value
     peaks = summary.get("peaks", {})
     for qty, unit in (("bending", "Nm"), ("torsion", "Nm"), ("axial", "N"), ("strain", "-")):
         if qty in peaks:
@@ -88,7 +90,7 @@ def extrapolate(summaries: list, ns: list, expected_order: float) -> dict:
     """summary['refinement'] from the summaries of the runs at ns = (n, 2n, 4n)."""
     per_run = [_scalars(s) for s in summaries]
     names = [k for k in per_run[-1] if all(k in p for p in per_run)]
-    quantities, warnings = {}, []
+    quantities, doubtful = {}, {"oscillating": [], "order": []}
     for name in names:
         values = [float(p[name]) for p in per_run]
         if max(abs(v) for v in values) <= NEGLIGIBLE * max(1.0, max(abs(float(x)) for x in per_run[-1].values())):
@@ -100,7 +102,15 @@ def extrapolate(summaries: list, ns: list, expected_order: float) -> dict:
         quantities[name] = {"values": values, "extrapolated": e.extrapolated, "observed_order": e.observed_order,
                             "error_estimate": e.error_estimate, "warning": e.warning or ""}
         if e.warning:
-            warnings.append(f"refinement, {name}: {e.warning}")
+            doubtful["oscillating" if "oscillating" in e.warning else "order"].append(name)
+    # One warning per kind, naming the quantities (each one's reason is in its entry).
+    warnings = []
+    if doubtful["order"]:
+        warnings.append(f"refinement: observed order far from the expected {expected_order:g} (extrapolated with "
+                        f"{expected_order:g}; not yet in the asymptotic range?) for " + ", ".join(doubtful["order"]))
+    if doubtful["oscillating"]:
+        warnings.append("refinement: non-monotonic convergence (error estimates unreliable) for "
+                        + ", ".join(doubtful["oscillating"]))
     return {"n": ns, "expected_order": expected_order, "quantities": quantities}, warnings
 
 
