@@ -101,6 +101,10 @@ def load_run(run_dir, id: str | None = None, params: dict | None = None) -> RunR
     if run.ok:
         run.table = _read_columns(run_dir / "table.csv", ints=("body",))
         run.timeseries = _read_columns(run_dir / "timeseries.csv")
+        if run.timeseries is None and (run_dir / "timeseries.h5").is_file():
+            # A large run streamed its time series to HDF5 (&solver output_format).
+            from pydriver.output import read_timeseries
+            run.timeseries = read_timeseries(run_dir / "timeseries.h5")
         run.modes = _read_columns(run_dir / "modes.csv", ints=("mode",))
     return run
 

@@ -1,0 +1,34 @@
+"""Time series to HDF5 for long or large runs (issues 10 and 14): the same numbers as the CSV
+file, read back by load_results, chosen automatically above the CSV size limit."""
+
+from __future__ import annotations
+
+import numpy as np
+
+import pydriver
+from conftest import INPUTS
+from pydriver import output
+from pydriver.analyses import dynamics
+
+
+def test_hdf5_holds_the_csv_numbers_and_load_results_reads_it(tmp_path):
+    """CSV cells are repr(float) (exact round trip) and HDF5 stores doubles: bit-identical."""
+    base = pydriver.Model.from_deck(INPUTS / "six_link_dynamic.nml").with_changes({"solver.t_end": 0.2})
+    pydriver.run_deck(base.with_changes({"solver.output_format": "csv"}), out=tmp_path / "csv")
+    pydriver.run_deck(base.with_changes({"solver.output_format": "hdf5"}), out=tmp_path / "h5")
+    assert (tmp_path / "h5" / "timeseries.h5").is_file() and not (tmp_path / "h5" / "timeseries.csv").exists()
+    a = pydriver.load_results(tmp_path / "csv").runs
+    b = pydriver.load_results(tmp_path / "h5").runs
+    ta, tb = next(iter(a.values())).timeseries, next(iter(b.values())).timeseries
+    assert list(ta) == list(tb) and len(ta["t"]) == 201             # dt_out = 1 ms
+    for name in ta:
+        assert np.array_equal(ta[name], tb[name]), name
+
+
+def test_auto_switches_to_hdf5_above_the_csv_limit(tmp_path, monkeypatch):
+    monkeypatch.setattr(dynamics, "CSV_MAX_VALUES", 100)
+    res = pydriver.run_deck(pydriver.Model.from_deck(INPUTS / "six_link_dynamic.nml").with_changes(
+        {"solver.t_end": 0.05}), out=tmp_path / "run")
+    assert res.summary["timeseries_format"] == "hdf5"
+    ts = output.read_timeseries(tmp_path / "run" / "timeseries.h5")
+    assert np.array_equal(ts["t"], res.timeseries["t"])
