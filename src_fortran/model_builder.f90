@@ -6,10 +6,11 @@ module rotorcable_model_builder
   use rotorcable_errors, only: error_type, fatal_error
   use rotorcable_chain, only: chain_allocate
   use rotorcable_joint, only: angles_from_thesis, MAX_JOINT_DOF
-  use rotorcable_model, only: model_type, model_init, positions_at
+  use rotorcable_model, only: model_type, model_init
   use rotorcable_loads_type, only: load_slot
   use rotorcable_loads_factory, only: new_load
   use rotorcable_supports_clamp, only: clamp_support, new_clamp
+  use rotorcable_projection, only: clamp_reach
   use rotorcable_motion_rigid_motion, only: rigid_motion
   use rotorcable_motion_builder, only: motion_from_flat
   use rotorcable_motion_rotor, only: set_constant_speed, set_runup_speed, set_table_speed, ROTOR_CONSTANT, ROTOR_RUNUP, &
@@ -119,7 +120,7 @@ contains
   subroutine build_finish(model, error)
     type(model_type), intent(inout) :: model  !< model
     type(error_type), intent(inout) :: error  !< status
-    real(dp) :: start(3), span, reach, zero(model%chain%n_coords)
+    real(dp) :: span, reach, zero(model%chain%n_coords)
     integer :: n
     character(len=200) :: buf
     call model_init(model)
@@ -131,19 +132,9 @@ contains
       call fatal_error(error, trim(buf), key='chain.n_bodies')
       return
     end if
-    ! Reach: the free part runs from the end of a clamped first body (or from A) to the start
-    ! of the clamped last body; it cannot span more than its length.
+    ! The free part cannot span more than its length.
     zero = 0.0_dp
-    call positions_at(model, 0.0_dp, zero)
-    select type (tip => model%tip)
-    type is (clamp_support)
-      start = model%st%joint_point(:, 1)
-      reach = sum(model%chain%length(1:n - 1))
-      if (model%chain%locked(1)) then
-        start = model%st%joint_point(:, 2)
-        reach = reach - model%chain%length(1)
-      end if
-      span = norm2(tip%position - model%chain%length(n)*tip%rotation(:, 3) - start)
+    if (clamp_reach(model, 0.0_dp, zero, reach, span)) then
       if (n < 2 .or. span > reach*(1.0_dp + 1.0e-12_dp)) then
         write (buf, '(a, g0.6, a, g0.6, a)') 'the end clamp is out of reach: the free part of the chain is ', &
           reach, ' m long but must span ', span, ' m'
@@ -155,7 +146,7 @@ contains
           reach, ' m long and must span ', span, ' m; give it slack'
         call fatal_error(error, trim(buf), key='clamp_b.position')
       end if
-    end select
+    end if
   end subroutine build_finish
 
   !> Coordinates and rates of a shape given in the thesis's (gamma, beta) per body [rad];

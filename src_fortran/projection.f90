@@ -8,7 +8,7 @@ module rotorcable_projection
   use rotorcable_supports_clamp, only: clamp_support
   implicit none
   private
-  public :: project_positions, project_velocities, constraint_rank_margin, rank_loss_message
+  public :: project_positions, project_velocities, constraint_rank_margin, rank_loss_message, clamp_reach
 
 contains
 
@@ -162,21 +162,10 @@ contains
     real(dp), intent(in) :: margin            !< sigma_min/sigma_max of G
     character(len=:), allocatable :: msg
     character(len=240) :: buf
-    real(dp) :: start(3), reach, span
-    integer :: n
+    real(dp) :: reach, span
     write (buf, '(a, es9.2, a)') 'clamp B: the constraint Jacobian has lost rank (sigma_min/sigma_max = ', margin, ')'
     msg = trim(buf)
-    n = model%chain%n_bodies
-    call positions_at(model, t, q)
-    select type (tip => model%tip)
-    type is (clamp_support)
-      start = model%st%joint_point(:, 1)
-      reach = sum(model%chain%length(1:n - 1))
-      if (model%chain%locked(1)) then
-        start = model%st%joint_point(:, 2)
-        reach = reach - model%chain%length(1)
-      end if
-      span = norm2(tip%position - model%chain%length(n)*tip%rotation(:, 3) - start)
+    if (clamp_reach(model, t, q, reach, span)) then
       write (buf, '(a, f10.6, a, f10.6, a, f8.4, a)') ': the free part of the chain spans ', span, &
         ' m of its ', reach, ' m reach (', 100.0_dp*span/max(reach, tiny(1.0_dp)), ' %)'
       msg = msg//trim(buf)
@@ -186,9 +175,37 @@ contains
               'bent towards the clamp'
         return
       end if
-    end select
+    end if
     msg = msg//'; the chain is straight or taut between the clamps, so its shape and the clamp '// &
           'reactions are not determined: move clamp B within reach or give the cable slack'
   end function rank_loss_message
+
+  !> The free part of the chain runs from the end of a clamped first body (or from A) to the
+  !> start of the body clamp B holds: its length (the reach) and the distance it must span at
+  !> (t, q).  False when there is no clamp B.
+  logical function clamp_reach(model, t, q, reach, span) result(has_clamp)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: q(:)              !< coordinates
+    real(dp), intent(out) :: reach            !< length of the free part [m]
+    real(dp), intent(out) :: span             !< distance it must span [m]
+    real(dp) :: start(3)
+    integer :: n
+    has_clamp = .false.
+    reach = 0.0_dp; span = 0.0_dp
+    n = model%chain%n_bodies
+    call positions_at(model, t, q)
+    select type (tip => model%tip)
+    type is (clamp_support)
+      has_clamp = .true.
+      start = model%st%joint_point(:, 1)
+      reach = sum(model%chain%length(1:n - 1))
+      if (model%chain%locked(1)) then
+        start = model%st%joint_point(:, 2)
+        reach = reach - model%chain%length(1)
+      end if
+      span = norm2(tip%position - model%chain%length(n)*tip%rotation(:, 3) - start)
+    end select
+  end function clamp_reach
 
 end module rotorcable_projection
