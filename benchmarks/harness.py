@@ -37,3 +37,36 @@ def timed_run(model, q0, v0, t_end: float, method: str = "rotorcable-IDA", rtol:
     out["gmax_end"] = float(end["g_max"][0])
     out["tip_end"] = end["joints"][:, -1, 0]
     return out
+
+
+def add_set_option(parser) -> None:
+    """``--set group.key=value`` (repeatable): deck values every run of the benchmark gets, e.g.
+    ``--set solver.linear_solver=chain``, so a script measures a new core option without
+    being edited.  The values are namelist texts, validated by the deck schema like a deck's."""
+    parser.add_argument("--set", dest="sets", action="append", default=[], metavar="GROUP.KEY=VALUE",
+                        help="deck override for every run (repeatable), e.g. solver.linear_solver=chain")
+
+
+def parse_sets(items) -> dict:
+    """``["solver.rtol=1e-8", ...]`` -> ``{"solver.rtol": "1e-8"}``; a malformed item is an error."""
+    out = {}
+    for item in items or ():
+        key, sep, value = item.partition("=")
+        if not sep or "." not in key:
+            raise SystemExit(f"--set {item!r}: expected GROUP.KEY=VALUE")
+        out[key.strip().lower()] = value.strip()
+    return out
+
+
+def nested_sets(sets: dict) -> dict:
+    """``{"solver.rtol": "1e-8"}`` -> ``{"solver": {"rtol": "1e-8"}}`` (pydriver.study.override_deck)."""
+    out: dict = {}
+    for dotted, value in sets.items():
+        group, _, key = dotted.partition(".")
+        out.setdefault(group, {})[key] = value
+    return out
+
+
+def set_args(sets: dict) -> list:
+    """The command-line form of ``sets``, to hand on to a child process."""
+    return [a for k, v in sets.items() for a in ("--set", f"{k}={v}")]
