@@ -124,6 +124,12 @@ def joint_constants(deck: Deck, b: Bodies) -> tuple:
     return c, d, rest
 
 
+def rotation_vector_springs(deck: Deck, b: Bodies) -> bool:
+    """Whether the joint springs act on the rotation vector of each joint (loads/
+    rotation_springs.f90): the physical cable parameters with the bending + twist joint."""
+    return b.physical and deck["chain.joint"] == "xyz" and deck["cable.spring_measure"] == "rotation_vector"
+
+
 def build(deck: Deck) -> tuple[CoreModel, dict]:
     """Build the deck's model in the core.
 
@@ -147,7 +153,11 @@ def build(deck: Deck) -> tuple[CoreModel, dict]:
                                      np.asarray(deck["shape.beta_rate_deg"]) * DEG)
     first_coord = _first_coords(b.locked, {"zy": 2, "xy": 2, "xyz": 3}[deck["chain.joint"]])
     c, d, rest = joint_constants(deck, b)
-    if np.any(c != 0.0) or np.any(d != 0.0):
+    if rotation_vector_springs(deck, b):
+        # Per free joint (K_x, K_y, K_z, D_x, D_y, D_z) about its child's axes; rest straight.
+        core.add_load("rotation_springs", reals=np.column_stack([c.reshape(-1, 3), d.reshape(-1, 3)]).ravel(),
+                      context="&cable")
+    elif np.any(c != 0.0) or np.any(d != 0.0):
         core.add_load("joint_springs", reals=np.concatenate([c, d, rest]), context="&springs")
     g = np.asarray(deck["loads.gravity"], float)
     if np.any(g != 0.0):

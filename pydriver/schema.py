@@ -110,6 +110,9 @@ def _keys() -> list[Key]:
             doc="bending stiffness EI; joint springs c = EI/l, 2 EI/l at a joint on a clamp"))
     add(Key("cable", "gj", "real", unit="N m^2", **POS, doc="torsional stiffness GJ (joint = 'xyz')"))
     add(Key("cable", "mass_per_length", "real", unit="kg/m", **POS, doc="mass per length (instead of &chain masses)"))
+    add(Key("cable", "spring_measure", "str", default="rotation_vector", choices=("rotation_vector", "joint_angles"),
+            doc="joint = 'xyz': springs on the joint's rotation vector log R (converges at second order "
+                "in 1/n) or on its Cardan angles (first order in three dimensions)"))
     add(Key("cable", "damping_time", "real", unit="s", default=0.0, **NONNEG,
             doc="structural damping, stiffness-proportional: d = damping_time * c at every joint"))
     # &clamp_a / &clamp_b ------------------------------------------------------------------

@@ -65,7 +65,7 @@ def _scalars(summary: dict) -> dict:
             for kind, unit in (("F", "N"), ("M", "Nm")):
                 for comp, value in zip("xyz", wrench[kind]):
                     out[f"{kind}_{support} {comp} [{unit}]"] = value
-    for comp, value in zip("xyz", summary.get("tip_m", ())):
+    for comp, value in zip("xyz", summary.get("tip_m", ()) if not summary.get("n_constraints") else ()):
         out[f"tip {comp} [m]"] = value
     peaks = summary.get("peaks", {})
     for qty, unit in (("bending", "Nm"), ("torsion", "Nm"), ("axial", "N"), ("strain", "-")):

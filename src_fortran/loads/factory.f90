@@ -11,6 +11,7 @@ module rotorcable_loads_factory
   use rotorcable_loads_tip_force, only: new_tip_force
   use rotorcable_loads_joint_springs, only: new_joint_springs
   use rotorcable_loads_drag, only: new_drag
+  use rotorcable_loads_rotation_springs, only: new_rotation_springs
   implicit none
   private
   public :: new_load
@@ -34,6 +35,8 @@ contains
       call new_tip_force(slot, chain, ints, reals, error)
     case ('joint_springs')
       call new_joint_springs(slot, chain, ints, reals, error)
+    case ('rotation_springs')
+      call new_rotation_springs(slot, chain, ints, reals, error)
     case ('drag')
       call new_drag(slot, chain, ints, reals, error)
     case default

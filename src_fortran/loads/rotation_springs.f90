@@ -1,0 +1,170 @@
+!> Joint springs and dampers on the rotation vector of a Cardan bending + twist joint (xyz): the
+!> discrete elastic energy of a geometrically exact rod (J. C. Simo, L. Vu-Quoc, "A
+!> three-dimensional finite-strain rod model. Part II", CMAME 58, 1986; the discrete rods of
+!> M. Bergou et al., "Discrete elastic rods", SIGGRAPH 2008, use the same curvature measure):
+!>
+!>   V_j = 1/2 phi_j^T K_j phi_j,   phi_j = log(R_rel,j),   K_j = diag(EI, EI, GJ)/l_j
+!>
+!> phi_j is the same vector in the parent's and the child's frame (R phi = phi).  Springs on the
+!> Cardan coordinates instead (rotorcable_loads_joint_springs) differ from this at second order
+!> in the joint angles (theta_3 = phi_3 - phi_1 phi_2 / 2 + ...), which summed over the L/l
+!> joints of a twisted, doubly bent cable is an O(l) error: the chain would converge at first
+!> order in 1/n (docs/model.md, "Converged numbers").
+!>
+!> Generalized forces, with w = R_c^T (omega_c - omega_p) = A qdot the relative angular velocity
+!> in the child's axes (A = R_c^T [joint axes in the world]) and phi' = J_r^-1(phi) w (the right
+!> Jacobian of SO(3); e.g. G. S. Chirikjian, Stochastic Models, Information Theory and Lie
+!> Groups II, 2012, eq. 10.86):
+!>
+!>   tau_j = -A^T J_r^-T(phi) K phi - A^T D A qdot,    D = damping_time K (dissipation w^T D w).
+!>
+!> Parameters: reals = (K(3, j), D(3, j) for every free joint j, in joint order).
+module rotorcable_loads_rotation_springs
+  use rotorcable_kinds, only: dp
+  use rotorcable_errors, only: error_type, fatal_error
+  use rotorcable_chain, only: chain_type
+  use rotorcable_joint, only: JOINT_XYZ, MAX_JOINT_DOF, joint_rotation
+  use rotorcable_kinematics, only: chain_state
+  use rotorcable_frame, only: frame_state
+  use rotorcable_rotations, only: skew, vee, identity3
+  use rotorcable_loads_type, only: load_term, load_slot
+  implicit none
+  private
+  public :: rotation_springs_load, new_rotation_springs, joint_rotation_vector, right_jacobian_inverse
+
+  !> Stiffness and damping per free joint, about its child's axes (bending x, y; twist z).
+  type, extends(load_term) :: rotation_springs_load
+    real(dp), allocatable :: stiffness(:, :)  !< (3, n) K diagonal [Nm/rad]; 0 for a locked joint
+    real(dp), allocatable :: damping(:, :)    !< (3, n) D diagonal [Nms/rad]
+    logical, allocatable :: free(:)           !< (n) joint j has coordinates
+  contains
+    procedure :: add_forces
+    procedure :: potential
+    procedure :: has_potential
+    procedure :: joint_diagonal
+  end type rotation_springs_load
+
+contains
+
+  !> Build from the flat parameters; every free joint must be an xyz joint.
+  subroutine new_rotation_springs(slot, chain, ints, reals, error)
+    type(load_slot), intent(inout) :: slot    !< slot to fill
+    type(chain_type), intent(in) :: chain     !< chain description
+    integer, intent(in) :: ints(:)            !< (none)
+    real(dp), intent(in) :: reals(:)          !< K, D per free joint
+    type(error_type), intent(inout) :: error  !< status
+    type(rotation_springs_load) :: load
+    integer :: j, k, n_free
+    n_free = count(.not. chain%locked)
+    if (size(reals) /= 6*n_free .or. any(chain%joint_kind /= JOINT_XYZ .and. .not. chain%locked)) then
+      call fatal_error(error, 'rotation-vector springs need xyz joints and 6 constants per free joint')
+      return
+    end if
+    load%label = 'rotation-vector springs'
+    allocate (load%stiffness(3, chain%n_bodies), load%damping(3, chain%n_bodies))
+    load%stiffness = 0.0_dp
+    load%damping = 0.0_dp
+    load%free = .not. chain%locked
+    k = 0
+    do j = 1, chain%n_bodies
+      if (chain%locked(j)) cycle
+      load%stiffness(:, j) = reals(6*k + 1:6*k + 3)
+      load%damping(:, j) = reals(6*k + 4:6*k + 6)
+      k = k + 1
+    end do
+    allocate (slot%term, source=load)
+  end subroutine new_rotation_springs
+
+  !> phi = log(R_rel) of joint j at the coordinates q.  The angle from atan2 of the skew and
+  !> the trace parts keeps full relative precision at small angles (acos of the trace does not).
+  pure function joint_rotation_vector(chain, j, q) result(phi)
+    type(chain_type), intent(in) :: chain     !< chain description
+    integer, intent(in) :: j                  !< joint
+    real(dp), intent(in) :: q(:)              !< coordinates [rad]
+    real(dp) :: phi(3)
+    real(dp) :: angles(MAX_JOINT_DOF), r(3, 3), axis_sin(3), s, c, angle
+    angles = 0.0_dp
+    angles(1:3) = q(chain%first_coord(j):chain%first_coord(j) + 2)
+    r = joint_rotation(JOINT_XYZ, angles)
+    axis_sin = 0.5_dp*vee(r - transpose(r))             ! sin(angle) * axis
+    s = norm2(axis_sin)
+    c = 0.5_dp*(r(1, 1) + r(2, 2) + r(3, 3) - 1.0_dp)
+    angle = atan2(s, c)
+    if (s > 1.0e-300_dp) then
+      phi = angle/s*axis_sin
+    else
+      phi = 0.0_dp
+    end if
+  end function joint_rotation_vector
+
+  !> J_r^-1(phi) = I + skew(phi)/2 + (1/a^2 - (1 + cos a)/(2 a sin a)) skew(phi)^2, a = |phi|;
+  !> the last coefficient by its series 1/12 + a^2/720 below a = 1e-3 (cancellation).
+  pure function right_jacobian_inverse(phi) result(jinv)
+    real(dp), intent(in) :: phi(3)            !< rotation vector [rad]
+    real(dp) :: jinv(3, 3)
+    real(dp) :: a, coef, p(3, 3)
+    a = norm2(phi)
+    if (a < 1.0e-3_dp) then
+      coef = 1.0_dp/12.0_dp + a**2/720.0_dp
+    else
+      coef = 1.0_dp/a**2 - (1.0_dp + cos(a))/(2.0_dp*a*sin(a))
+    end if
+    p = skew(phi)
+    jinv = identity3() + 0.5_dp*p + coef*matmul(p, p)
+  end function right_jacobian_inverse
+
+  pure subroutine add_forces(self, chain, st, fs, t, q, v, force, moment, tau)
+    class(rotation_springs_load), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    type(frame_state), intent(in) :: fs
+    real(dp), intent(in) :: t, q(:), v(:)
+    real(dp), intent(inout) :: force(:, :), moment(:, :), tau(:)
+    real(dp) :: phi(3), a(3, 3), w(3), torque(3)
+    integer :: j, i0
+    do j = 1, chain%n_bodies
+      if (chain%locked(j)) cycle
+      i0 = chain%first_coord(j)
+      phi = joint_rotation_vector(chain, j, q)
+      a = matmul(transpose(st%rot(:, :, j)), st%axes(:, 1:3, j))
+      w = matmul(a, v(i0:i0 + 2))
+      torque = matmul(transpose(right_jacobian_inverse(phi)), self%stiffness(:, j)*phi) + self%damping(:, j)*w
+      tau(i0:i0 + 2) = tau(i0:i0 + 2) - matmul(transpose(a), torque)
+    end do
+  end subroutine add_forces
+
+  pure real(dp) function potential(self, chain, st, q) result(e)
+    class(rotation_springs_load), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    real(dp), intent(in) :: q(:)
+    real(dp) :: phi(3)
+    integer :: j
+    e = 0.0_dp
+    do j = 1, chain%n_bodies
+      if (chain%locked(j)) cycle
+      phi = joint_rotation_vector(chain, j, q)
+      e = e + 0.5_dp*sum(self%stiffness(:, j)*phi**2)
+    end do
+  end function potential
+
+  pure logical function has_potential(self)
+    class(rotation_springs_load), intent(in) :: self
+    has_potential = .true.
+  end function has_potential
+
+  !> The diagonal at q = 0 (A = I, J_r = I there): what a chain factorisation may use.
+  pure subroutine joint_diagonal(self, stiffness, damping)
+    class(rotation_springs_load), intent(in) :: self
+    real(dp), intent(inout) :: stiffness(:), damping(:)
+    integer :: j, k
+    k = 0
+    do j = 1, size(self%stiffness, 2)
+      if (.not. self%free(j)) cycle
+      stiffness(k + 1:k + 3) = stiffness(k + 1:k + 3) + self%stiffness(:, j)
+      damping(k + 1:k + 3) = damping(k + 1:k + 3) + self%damping(:, j)
+      k = k + 3
+    end do
+  end subroutine joint_diagonal
+
+end module rotorcable_loads_rotation_springs
