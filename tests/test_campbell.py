@@ -85,3 +85,15 @@ def test_a_ten_times_softer_cable_meets_the_1rev_band():
     assert s["frequencies_hz"][0][0] == pytest.approx(26.318 / np.sqrt(10), rel=0.02)
     assert s["below_1rev_in_operating_range"]
     assert len(s["crossings"]) > 5
+
+
+def test_an_overdamped_mode_has_no_crossings():
+    """A mode that stops oscillating (frequency 0, zeta >= 1) between two speeds would cross
+    1/rev by interpolation towards its 0; that is no resonance and is not reported.  The same
+    mode meeting 1/rev while it oscillates is."""
+    rpm = np.array([0.0, 100.0, 200.0, 300.0])
+    going_overdamped = np.array([[5.0], [3.0], [0.0], [0.0]])      # 1/rev: 0, 1.67, 3.33, 5 Hz
+    assert crossings(rpm, going_overdamped, 1, (0.0, 300.0)) == []
+    oscillating = np.array([[5.0], [3.0], [2.0], [1.0]])
+    found = crossings(rpm, oscillating, 1, (0.0, 300.0))
+    assert [c["harmonic"] for c in found] == [1] and 100.0 < found[0]["rpm"] < 200.0

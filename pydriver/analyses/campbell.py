@@ -52,12 +52,16 @@ def mac(a: np.ndarray, b: np.ndarray, m_full: np.ndarray) -> np.ndarray:
 
 def crossings(rpm, freqs, harmonics: int, op_range) -> list[dict]:
     """Where a tracked mode's frequency meets k/rev inside the operating range (linear
-    interpolation between grid speeds)."""
+    interpolation between grid speeds).  Only between speeds where the mode oscillates at
+    both ends: an overdamped mode (frequency 0) cannot resonate, and interpolating into its 0
+    would invent a crossing."""
     out = []
     for mode in range(freqs.shape[1]):
         for k in range(1, harmonics + 1):
             gap = freqs[:, mode] - k * rpm / 60.0
             for i in range(len(rpm) - 1):
+                if freqs[i, mode] <= 0.0 or freqs[i + 1, mode] <= 0.0:
+                    continue
                 if gap[i] == 0.0 or gap[i] * gap[i + 1] < 0.0:
                     w = gap[i] / (gap[i] - gap[i + 1]) if gap[i] != gap[i + 1] else 0.0
                     r = rpm[i] + w * (rpm[i + 1] - rpm[i])
@@ -109,7 +113,8 @@ def campbell_analysis(model) -> Result:
     found = crossings(rpm, freqs, int(c["harmonics"]), op)
     in_op = (rpm >= op[0]) & (rpm <= op[1])
     summary = base_summary(model, "campbell", time.perf_counter() - t_wall)
-    lowest = float(np.min(freqs[in_op]))
+    oscillating = freqs[in_op] > 0.0
+    lowest = float(np.min(freqs[in_op][oscillating])) if np.any(oscillating) else 0.0
     summary.update(rpm=[float(x) for x in rpm], operating_rpm=[float(x) for x in op],
                    harmonics=int(c["harmonics"]), lag_band_hz=[float(x) for x in c["lag_band_hz"]],
                    frequencies_hz=[[float(x) for x in row] for row in freqs],
@@ -117,8 +122,13 @@ def campbell_analysis(model) -> Result:
                    highest_1rev_hz=float(op[1] / 60.0),
                    below_1rev_in_operating_range=bool(lowest < op[1] / 60.0),
                    min_mac=float(np.min(macs)), unstable_rpm=unstable)
+    summary["warnings"] = []
+    for mode in np.flatnonzero(np.any(freqs <= 0.0, axis=0)):
+        at = rpm[freqs[:, mode] <= 0.0]
+        summary["warnings"].append(f"mode {mode + 1} does not oscillate (overdamped, zeta >= 1) at {len(at)} "
+                                   f"speeds from {at.min():.0f} rpm: drawn at 0 Hz, no crossings counted there")
     if unstable:
-        summary["warnings"] = [f"the equilibrium is unstable (an eigenvalue with positive real part) at "
+        summary["warnings"] += [f"the equilibrium is unstable (an eigenvalue with positive real part) at "
                                f"{len(unstable)} speeds from {min(unstable):.0f} rpm: divergence or flutter"]
     table = {"rpm": np.repeat(rpm, n_modes), "mode": np.tile(np.arange(1, n_modes + 1), len(rpm)),
              "f_hz": freqs.reshape(-1), "zeta": zetas.reshape(-1), "mac": macs.reshape(-1)}
