@@ -91,20 +91,28 @@ def million_samples(sets: dict, workdir: Path) -> dict:
     steps = int(summary["solver"]["steps"])
     n_samples = int(summary["n_samples"])
     h5file = out / "timeseries.h5"
-    if steps <= 0 or not h5file.is_file():
-        raise NoWorkDone(f"long run: {steps} steps, {h5file.name} exists: {h5file.is_file()}")
-    import h5py
-    with h5py.File(h5file, "r") as h5:
-        columns = json.loads(h5.attrs["columns"])
-        rows = {len(h5[c]) for c in columns}
-        t = h5["t"][:]
+    csvfile = out / "timeseries.csv"                  # with --set solver.output_format=csv
+    if steps <= 0 or not (h5file.is_file() or csvfile.is_file()):
+        raise NoWorkDone(f"long run: {steps} steps, no timeseries.h5 or timeseries.csv")
+    if h5file.is_file():
+        import h5py
+        with h5py.File(h5file, "r") as h5:
+            columns = json.loads(h5.attrs["columns"])
+            rows = {len(h5[c]) for c in columns}
+            t = h5["t"][:]
+    else:
+        h5file = csvfile
+        with open(csvfile) as fh:
+            columns = fh.readline().strip().split(",")
+            t = np.array([float(line.split(",", 1)[0]) for line in fh])
+        rows = {len(t)}
     expected = int(round(T_END / DT_OUT)) + 1
     if rows != {expected} or n_samples != expected or not np.all(np.diff(t) > 0) \
             or abs(t[0]) > 1e-12 or abs(t[-1] - T_END) > 1e-9:
         raise NoWorkDone(f"{h5file.name}: rows per column {sorted(rows)}, summary n_samples {n_samples}, "
                          f"expected {expected}; t from {t[0]} to {t[-1]}")
     size = h5file.stat().st_size
-    return {"samples": expected, "columns": len(columns), "file_bytes": size, "ida_steps": steps,
+    return {"samples": expected, "columns": len(columns), "file": h5file.name, "file_bytes": size, "ida_steps": steps,
             "child_wall_s": wall, "child_peak_rss_mb": usage.ru_maxrss * 1024 / 1e6,
             "target_rss_mb": TARGET_RSS_MB,
             "verdict": verdict(usage.ru_maxrss * 1024 / 1e6 < TARGET_RSS_MB)}
@@ -198,7 +206,7 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         if not args.skip_long:
             r = report["million_samples"] = million_samples(sets, Path(tmp))
-            print(f"{r['samples']} samples x {r['columns']} columns ({r['file_bytes'] / 1e6:.0f} MB HDF5), "
+            print(f"{r['samples']} samples x {r['columns']} columns ({r['file_bytes'] / 1e6:.0f} MB {r['file']}), "
                   f"{r['ida_steps']} IDA steps, child wall {r['child_wall_s']:.1f} s: peak RSS "
                   f"{r['child_peak_rss_mb']:.0f} MB (< {TARGET_RSS_MB:g} MB): {r['verdict']}", flush=True)
         d = report["deck_parsing"] = deck_parsing(args.deck_bodies, args.deck_mb, args.table_samples, args.repeat,
