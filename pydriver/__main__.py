@@ -92,6 +92,7 @@ def _add_sweep_parsers(sub):
                              "nothing, print the sbatch and aggregation commands")
     sweep.add_argument("--quiet", action="store_true", help="no progress bar")
     sweep.add_argument("--no-plots", action="store_true", help="do not draw DIR/plots/")
+    sweep.add_argument("--report", action="store_true", help="also write DIR/report.html (grid, table, plots)")
     sweep.add_argument("--retry-failed", action="store_true",
                        help="run the decks whose record is an error again")
     task = sub.add_parser("sweep-task", help="run one grid point of a prepared sweep (Slurm array task)")
@@ -100,6 +101,7 @@ def _add_sweep_parsers(sub):
     coll = sub.add_parser("sweep-collect", help="aggregate a sweep's finished runs into sweep.csv and plots")
     coll.add_argument("out", help="sweep directory")
     coll.add_argument("--no-plots", action="store_true", help="do not draw DIR/plots/")
+    coll.add_argument("--report", action="store_true", help="also write DIR/report.html")
 
 
 def _sweep_command(args) -> int:
@@ -111,7 +113,7 @@ def _sweep_command(args) -> int:
             print(f"{rec['id']}: {state}" + (f": {rec['error']}" if rec["error"] else ""))
             return 0 if rec["error"] is None else 1
         if args.command == "sweep-collect":
-            status = collect(args.out, plots=not args.no_plots)
+            status = collect(args.out, plots=not args.no_plots, report=args.report)
             print(status.line())
             return 0 if status.ok else 1
         if args.jobs is not None and args.jobs < 1:
@@ -124,7 +126,7 @@ def _sweep_command(args) -> int:
             return 0
         status = run_sweep(args.base, args.sets, args.out, jobs=args.jobs, dask=args.dask,
                            progress=not args.quiet, plots=not args.no_plots,
-                           retry_failed=args.retry_failed)
+                           retry_failed=args.retry_failed, report=args.report)
     except (SweepError, FileNotFoundError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

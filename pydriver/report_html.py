@@ -23,6 +23,7 @@ th, td { border: 1px solid #bbb; padding: 0.25em 0.6em; text-align: right; }
 th { background: #eef; } td.l, th.l { text-align: left; }
 img { max-width: 100%; border: 1px solid #ddd; margin: 0.5em 0; }
 pre { background: #f6f6f6; padding: 0.8em; white-space: pre-wrap; font-size: 0.85em; }
+.scroll { overflow-x: auto; }
 .warn { background: #fff3cd; border-left: 4px solid #e0a800; padding: 0.4em 0.8em; }
 """
 
@@ -33,7 +34,7 @@ def _table(header: list[str], rows: list[list], left: int = 1) -> str:
            + "</tr>"]
     for r in rows:
         out.append("<tr>" + "".join(f"<td{cls(i)}>{html.escape(_cell(v))}</td>" for i, v in enumerate(r)) + "</tr>")
-    return "".join(out) + "</table>"
+    return "<div class='scroll'>" + "".join(out) + "</table></div>"
 
 
 def _cell(v) -> str:

@@ -15,6 +15,26 @@ from pydriver.sweep.table import REACTION_COLUMNS
 PLOT_RESULTS = ["f1_hz", "f1_damped_hz", "zeta1"] + REACTION_COLUMNS
 
 
+def axis_label(name: str) -> str:
+    """A sweep column or deck key with its unit in brackets (legible plots: units on every axis)."""
+    from pydriver.schema import lookup
+    base = re.sub(r"\(\d+\)$", "", name)
+    if "." in base:
+        key = lookup(*base.split(".", 1))
+        unit = key.unit if key is not None else "-"
+        return f"{name} [{unit}]"
+    for prefix, unit in (("F", "N"), ("M", "Nm")):
+        if re.fullmatch(prefix + r"[AB]_[xyz]", name):
+            return f"{name} [{unit}]"
+    if name.endswith("_hz"):
+        return f"{name[:-3]} [Hz]"
+    if name.endswith("_m"):
+        return f"{name[:-2]} [m]"
+    if name.endswith("_s"):
+        return f"{name[:-2]} [s]"
+    return f"{name} [-]"
+
+
 def plot_sweep(out, table: dict, params: list, scales: dict) -> list[Path]:
     """Draw the plots of a sweep into ``out/plots/`` (each file written atomically).
 
@@ -59,8 +79,8 @@ def plot_sweep(out, table: dict, params: list, scales: dict) -> list[Path]:
                 ax.plot(x[sel][order], y[sel][order], "o-", ms=3, label=label)
             if scales.get(p) == "log":
                 ax.set_xscale("log")
-            ax.set_xlabel(p)
-            ax.set_ylabel(name)
+            ax.set_xlabel(axis_label(p))
+            ax.set_ylabel(axis_label(name))
             ax.grid(True)
             if others and len(groups) <= 8:
                 ax.legend(fontsize=7)

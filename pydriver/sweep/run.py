@@ -44,7 +44,8 @@ def _tasks(out: Path, manifest: dict, retry_failed: bool) -> tuple[list, list]:
 
 
 def run_sweep(base, sets: list[str], out, *, jobs: int | None = None, dask: str | None = None,
-              progress: bool = True, plots: bool = True, retry_failed: bool = False) -> SweepStatus:
+              progress: bool = True, plots: bool = True, retry_failed: bool = False,
+              report: bool = False) -> SweepStatus:
     """Run a grid of decks and aggregate their results into ``DIR/sweep.csv``.
 
     Parameters
@@ -67,6 +68,8 @@ def run_sweep(base, sets: list[str], out, *, jobs: int | None = None, dask: str 
         Draw ``DIR/plots/`` after the runs.
     retry_failed : bool
         Run the decks whose record is an error again (e.g. after fixing the cause).
+    report : bool
+        Also write ``DIR/report.html``.
 
     Returns
     -------
@@ -107,7 +110,7 @@ def run_sweep(base, sets: list[str], out, *, jobs: int | None = None, dask: str 
         finally:
             if bar is not None:
                 bar.close()
-        status = collect(out, plots=plots)
+        status = collect(out, plots=plots, report=report)
     # From the records, not the callbacks: decks that finish while an interrupted pool shuts
     # down count too.
     have = set(skipped) | set(status.missing)

@@ -212,7 +212,7 @@ class SweepStatus:
         return s
 
 
-def collect(out, plots: bool = True) -> SweepStatus:
+def collect(out, plots: bool = True, report: bool = False) -> SweepStatus:
     """Aggregate the records of a sweep into ``DIR/sweep.csv`` (and plots).
 
     Parameters
@@ -221,6 +221,8 @@ def collect(out, plots: bool = True) -> SweepStatus:
         Sweep directory.
     plots : bool
         Also draw ``DIR/plots/<result>_vs_<parameter>.png`` (matplotlib).
+    report : bool
+        Also write ``DIR/report.html`` (one self-contained page: grid, table, plots).
 
     Returns
     -------
@@ -245,4 +247,7 @@ def collect(out, plots: bool = True) -> SweepStatus:
         from pydriver.sweep.plots import plot_sweep  # matplotlib only when drawing
         plot_sweep(out, rows_to_table(columns, rows, manifest["params"]), manifest["params"],
                    manifest.get("scales", {}))
+    if report:
+        from pydriver.sweep.report import sweep_report_html
+        write_atomic(out / "report.html", sweep_report_html(out, manifest, columns, rows, status))
     return status
