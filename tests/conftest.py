@@ -2,6 +2,14 @@
 
 from __future__ import annotations
 
+import os
+
+# Single-threaded BLAS: the reference model's small dense solves are several times slower when
+# OpenBLAS spreads them over the cores (measured on a 2-core VM), and the core calls LAPACK on
+# matrices of tens of rows.  Set before numpy is imported by the tests.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
 import json
 import re
 from pathlib import Path
