@@ -52,7 +52,7 @@ if os.environ.get("ROTORCABLE_FPE_TRAP") == "1":
 
 JOINT_KINDS = {"zy": 1, "xy": 2, "xyz": 3}
 ROTOR_PROFILES = {"constant": 1, "runup": 2, "table": 3}
-LINEAR_SOLVERS = {"block": 1, "dense": 2}
+LINEAR_SOLVERS = {"block": 1, "dense": 2, "chain": 3}
 
 
 def _text(x) -> str:
@@ -232,6 +232,14 @@ class CoreModel:
         _raise(self.deck, stat, "", msg)
         return {"jacobian": jac, "x_block": x, "ns_block_factor": nbf, "ns_block_solve": nbs,
                 "ns_dense_factor": ndf, "ns_dense_solve": nds}
+
+    def chain_solver(self, y, cj: float, b, n_rep: int = 1, t: float = 0.0) -> dict:
+        """The chain solver's approximate iteration matrix at (t, q, cj), its solutions of J x = b
+        and the block solver's solutions of the same matrix, with the chain's timings."""
+        (jac, xc, xb, nf, ns, stat, msg) = _probes.rc_probe_chain_solver(
+            self.handle, float(t), float(cj), _reals(y), np.asfortranarray(b, float), int(n_rep))
+        _raise(self.deck, stat, "", msg)
+        return {"jacobian": jac, "x_chain": xc, "x_block": xb, "ns_factor": nf, "ns_solve": ns}
 
     def time_kernels(self, y, yd, n_rep: int, t: float = 0.0) -> dict:
         r, ns_res, ns_jac, ns_mass, stat, msg = _probes.rc_probe_time_kernels(

@@ -234,8 +234,10 @@ def _keys() -> list[Key]:
             doc="equilibrium by Newton, or by damped dynamic settling (thesis 5.3)"))
     add(Key("solver", "settle_tol", "real", unit="rad/s", default=1.0e-8, **POS,
             doc="settled when max |qdot| < settle_tol"))
-    add(Key("solver", "linear_solver", "str", default="block", choices=("block", "dense"),
-            doc="IDA linear solver: Schur-complement blocks or SUNDIALS's dense LU"))
+    add(Key("solver", "linear_solver", "str", default="block", choices=("block", "dense", "chain"),
+            doc="IDA linear solver: Schur-complement blocks of the full iteration matrix (O(n^3)), "
+                "SUNDIALS's dense LU, or 'chain': an O(n) articulated-body solve of an approximate "
+                "iteration matrix (mass, joint springs and dampers, constraints; no Jacobian formed)"))
     add(Key("solver", "jacobian_max_age", "int", default=50, low=1,
             doc="steps over which the finite-difference part of the Jacobian is kept"))
     add(Key("solver", "vector_kernels", "str", default="compiled", choices=("compiled", "sundials"),

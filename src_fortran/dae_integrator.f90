@@ -18,13 +18,16 @@ module rotorcable_dae_integrator
   use rotorcable_joint, only: JOINT_ZY
   use rotorcable_nvector_kernels, only: use_fast_kernels
   use rotorcable_ggl_linear_solver, only: ggl_block_solver, block_solver_create, block_solver_destroy
+  use rotorcable_chain_linear_solver, only: ggl_chain_solver, chain_solver_create, chain_solver_destroy
   implicit none
   private
   public :: integrator_settings, solver_stats, consistent_start, dae_session, session_start, session_advance, &
-            session_end, integrate, LINEAR_SOLVER_BLOCK, LINEAR_SOLVER_DENSE
+            session_end, integrate, LINEAR_SOLVER_BLOCK, LINEAR_SOLVER_DENSE, LINEAR_SOLVER_CHAIN
 
   integer, parameter :: LINEAR_SOLVER_BLOCK = 1  !< Schur-complement factorisation (ggl_linear_solver)
   integer, parameter :: LINEAR_SOLVER_DENSE = 2  !< SUNDIALS's dense LU of the whole matrix
+  !> O(n) articulated-body solve of an approximate iteration matrix (chain_linear_solver)
+  integer, parameter :: LINEAR_SOLVER_CHAIN = 3
   !> sigma_min/sigma_max of G below which the start's constraints count as dependent.
   real(dp), parameter :: RANK_TOL = 1.0e-7_dp
 
@@ -56,6 +59,7 @@ module rotorcable_dae_integrator
     type(integrator_settings) :: settings
     type(ida_user_data), pointer :: ud => null()
     type(ggl_block_solver), pointer :: block => null()
+    type(ggl_chain_solver), pointer :: chain => null()
     type(c_ptr) :: ctx = c_null_ptr, mem = c_null_ptr, yy = c_null_ptr, yp = c_null_ptr
     type(c_ptr) :: id = c_null_ptr, atol = c_null_ptr, mat = c_null_ptr, ls = c_null_ptr
     real(dp) :: t_now = 0.0_dp                !< time reached [s]
@@ -156,13 +160,22 @@ contains
     s%mem = IDACreate(s%ctx)
     s%ud%mem = s%mem
     s%ud%jacobian_max_age = settings%jacobian_max_age
-    allocate (s%ud%physics(n, n))
     call check(s, IDAInit(s%mem, c_funloc(ggl_residual), real(t0, c_double), s%yy, s%yp), 'IDAInit', error)
     call check(s, IDASVtolerances(s%mem, real(settings%rtol, c_double), s%atol), 'IDASVtolerances', error)
     call check(s, IDASetUserData(s%mem, c_loc(s%ud)), 'IDASetUserData', error)
     call check(s, IDASetErrHandlerFn(s%mem, c_funloc(ida_error_handler), c_loc(s%ud)), 'IDASetErrHandlerFn', error)
     call check(s, IDASetId(s%mem, s%id), 'IDASetId', error)
     call check(s, IDASetSuppressAlg(s%mem, 1_c_int), 'IDASetSuppressAlg', error)
+    if (settings%linear_solver == LINEAR_SOLVER_CHAIN) then
+      ! No matrix and no Jacobian at all: the solver factorises its own (O(n) memory and work).
+      allocate (s%chain)
+      call chain_solver_create(s%chain, model, s%mem, s%ctx, settings%jacobian_max_age)
+      s%ls = s%chain%handle
+      call check(s, IDASetLinearSolver(s%mem, s%ls, c_null_ptr), 'IDASetLinearSolver', error)
+      call finish_start(s, settings, error)
+      return
+    end if
+    allocate (s%ud%physics(n, n))
     s%mat = SUNDenseMatrix(n64, n64, s%ctx)
     if (settings%linear_solver == LINEAR_SOLVER_BLOCK .and. settings%structured_jacobian) then
       allocate (s%block)
@@ -174,12 +187,20 @@ contains
     end if
     call check(s, IDASetLinearSolver(s%mem, s%ls, s%mat), 'IDASetLinearSolver', error)
     if (settings%structured_jacobian) call check(s, IDASetJacFn(s%mem, c_funloc(ggl_jacobian)), 'IDASetJacFn', error)
+    call finish_start(s, settings, error)
+  end subroutine session_start
+
+  !> The settings every linear solver shares: maximum step, first stop time.
+  subroutine finish_start(s, settings, error)
+    type(dae_session), intent(inout) :: s
+    type(integrator_settings), intent(in) :: settings
+    type(error_type), intent(inout) :: error
     if (settings%h_max > 0.0_dp) &
       call check(s, IDASetMaxStep(s%mem, real(settings%h_max, c_double)), 'IDASetMaxStep', error)
     if (size(s%t_switch) > 0) &
       call check(s, IDASetStopTime(s%mem, real(s%t_switch(1), c_double)), 'IDASetStopTime', error)
     if (error%code /= 0) s%failed = .true.
-  end subroutine session_start
+  end subroutine finish_start
 
   !> Advance to each of the increasing times t_out (all later than the time reached) and
   !> return the state there.  Each time is reached exactly (IDA's normal mode interpolates
@@ -284,6 +305,9 @@ contains
     if (associated(s%block)) then
       call block_solver_destroy(s%block)
       deallocate (s%block)
+    else if (associated(s%chain)) then
+      call chain_solver_destroy(s%chain)
+      deallocate (s%chain)
     else if (c_associated(s%ls)) then
       flag = SUNLinSolFree(s%ls)
     end if
@@ -328,6 +352,8 @@ contains
     s%stats = s%earlier
     call add_counters(s, s%stats)
     s%stats%residual_evals = s%stats%residual_evals + s%ud%jac_residuals
+    ! The chain solver forms no Jacobian: its factorisations count instead.
+    if (associated(s%chain)) s%stats%jacobian_evals = s%stats%jacobian_evals + s%chain%factorisations
   end subroutine collect_stats
 
   !> Add IDA's current counters to a statistics record.

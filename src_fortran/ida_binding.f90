@@ -12,9 +12,11 @@ module rotorcable_ida_binding
             IDASetMaxNumSteps, IDASetMaxStep, IDASetStopTime, IDASolve, IDAReInit, IDAFree, &
             IDAGetNumSteps, IDAGetNumResEvals, IDAGetNumJacEvals, IDAGetNumLinResEvals, &
             IDAGetNumErrTestFails, IDAGetNumNonlinSolvConvFails, IDASetErrHandlerFn, IDA_NORMAL, &
-            IDASetJacFn, SUNDenseMatrix_Data, IDAGetNumLinSolvSetups
+            IDASetJacFn, SUNDenseMatrix_Data, IDAGetNumLinSolvSetups, IDAGetCurrentCj, IDAGetCurrentY, &
+            IDAGetCurrentTime, IDASetPreconditioner
 
-  public :: sun_linear_solver, sun_linear_solver_ops, SUNLINEARSOLVER_DIRECT, SUNLS_SUCCESS, SUNLS_LUFACT_FAIL
+  public :: sun_linear_solver, sun_linear_solver_ops, SUNLINEARSOLVER_DIRECT, SUNLINEARSOLVER_MATRIX_EMBEDDED, &
+            SUNLS_SUCCESS, SUNLS_LUFACT_FAIL
 
   !> struct _generic_SUNLinearSolver (sundials_linearsolver.h, 6.4): a user-supplied linear
   !> solver is an empty solver whose content and operation pointers are filled in.
@@ -32,6 +34,8 @@ module rotorcable_ida_binding
   end type sun_linear_solver_ops
 
   integer(c_int), parameter :: SUNLINEARSOLVER_DIRECT = 0  !< SUNLinearSolver_Type
+  !> A solver that holds its own matrix (IDA passes none and calls no Jacobian function).
+  integer(c_int), parameter :: SUNLINEARSOLVER_MATRIX_EMBEDDED = 3
   integer(c_int), parameter :: SUNLS_SUCCESS = 0
   integer(c_int), parameter :: SUNLS_LUFACT_FAIL = 808     !< positive: IDA retries (recoverable)
   integer(c_int), parameter :: IDA_NORMAL = 1   !< itask of IDASolve: return at tout
@@ -201,6 +205,26 @@ module rotorcable_ida_binding
       type(c_ptr), value :: mem
       integer(c_long) :: n
     end function IDAGetNumLinSolvSetups
+    integer(c_int) function IDAGetCurrentCj(mem, cj) bind(C, name='IDAGetCurrentCj')
+      import :: c_int, c_ptr, c_double
+      type(c_ptr), value :: mem
+      real(c_double) :: cj
+    end function IDAGetCurrentCj
+    integer(c_int) function IDAGetCurrentY(mem, ycur) bind(C, name='IDAGetCurrentY')
+      import :: c_int, c_ptr
+      type(c_ptr), value :: mem
+      type(c_ptr) :: ycur
+    end function IDAGetCurrentY
+    integer(c_int) function IDAGetCurrentTime(mem, tcur) bind(C, name='IDAGetCurrentTime')
+      import :: c_int, c_ptr, c_double
+      type(c_ptr), value :: mem
+      real(c_double) :: tcur
+    end function IDAGetCurrentTime
+    integer(c_int) function IDASetPreconditioner(mem, psetup, psolve) bind(C, name='IDASetPreconditioner')
+      import :: c_int, c_ptr, c_funptr
+      type(c_ptr), value :: mem
+      type(c_funptr), value :: psetup, psolve
+    end function IDASetPreconditioner
   end interface
 
 end module rotorcable_ida_binding

@@ -3,7 +3,7 @@
 !> differences), the GGL residual and iteration matrix, timed kernels and a timed
 !> integration.  Same handle and status conventions as rotorcable_api.
 module rotorcable_probes
-  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_null_ptr
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error
   use rotorcable_model, only: model_type, eom_residual, generalized_forces, mass_matrix, constraint_residual, &
@@ -14,13 +14,15 @@ module rotorcable_probes
   use rotorcable_dae_integrator, only: integrator_settings, solver_stats, consistent_start, integrate
   use rotorcable_ggl_residual, only: ggl_residual_dense, ggl_jacobian_dense
   use rotorcable_ggl_linear_solver, only: ggl_block_solver, block_factorise, block_solve
+  use rotorcable_chain_linear_solver, only: ggl_chain_solver, chain_solver_create, chain_factorise, chain_solve, &
+                                            chain_iteration_matrix
   use rotorcable_ode_integrator, only: ode_settings, integrate_ode, ODE_RK8PD, ODE_MSBDF
   use rotorcable_linalg, only: dgetrf, dgetrs
   use rotorcable_projection, only: constraint_rank_margin
   implicit none
   private
   public :: rc_probe_evaluate, rc_probe_consistent_start, rc_probe_ggl_residual, rc_probe_iteration_matrix, &
-            rc_probe_time_kernels, rc_probe_integrate, rc_probe_rank_margin
+            rc_probe_time_kernels, rc_probe_integrate, rc_probe_rank_margin, rc_probe_chain_solver
 
 contains
 
@@ -139,6 +141,71 @@ contains
     if (error%code == 0) call ggl_residual_dense(model, t, y, yd, r)
     call to_status(error, stat, msg)
   end subroutine rc_probe_ggl_residual
+
+  !> The approximate iteration matrix of the chain solver (rotorcable_chain_linear_solver) at
+  !> (t, q, cj), dense, with the chain solver's solutions of J x = b and the block solver's
+  !> solutions of the same dense matrix, and the chain solver's wall time per factorisation and
+  !> per solve.
+  subroutine rc_probe_chain_solver(handle, t, cj, n, y, n_rhs, b, n_rep, jac, x_chain, x_block, ns_factor, &
+                                   ns_solve, stat, msg)
+    integer(c_int), intent(in) :: handle          !< model handle
+    real(c_double), intent(in) :: t, cj           !< time [s], IDA's cj [1/s]
+    integer(c_int), intent(in) :: n, n_rhs        !< GGL unknowns 2 nq + 2 nc, right-hand sides
+    real(c_double), intent(in) :: y(n)            !< state (only q is used)
+    real(c_double), intent(in) :: b(n, n_rhs)     !< right-hand sides
+    integer(c_int), intent(in) :: n_rep           !< repetitions of each timed operation
+    real(c_double), intent(out) :: jac(n, n)      !< the approximate iteration matrix
+    real(c_double), intent(out) :: x_chain(n, n_rhs)  !< chain solutions
+    real(c_double), intent(out) :: x_block(n, n_rhs)  !< block solutions of jac
+    real(c_double), intent(out) :: ns_factor, ns_solve  !< chain: ns per factorisation, per solve
+    integer(c_int), intent(out) :: stat           !< 0 = ok
+    character(len=1024), intent(out) :: msg       !< why not
+    type(model_type), pointer :: model
+    type(error_type) :: error
+    type(ggl_chain_solver), target :: chain
+    type(ggl_block_solver) :: block
+    integer(kind=8) :: k0, k1, rate
+    integer :: nq, nc, i, k, info
+    jac = 0.0_dp; x_chain = 0.0_dp; x_block = 0.0_dp; ns_factor = 0.0_dp; ns_solve = 0.0_dp
+    model => model_of(handle, error)
+    if (error%code == 0) then
+      if (n /= 2*model%nq + 2*model%nc) call fatal_error(error, 'n must be 2 nq + 2 nc')
+    end if
+    if (error%code /= 0) then
+      call to_status(error, stat, msg)
+      return
+    end if
+    nq = model%nq; nc = model%nc
+    call chain_solver_create(chain, model, c_null_ptr)
+    call chain_iteration_matrix(chain, t, cj, y(1:nq), jac)
+    call system_clock(k0, rate)
+    do i = 1, max(n_rep, 1)
+      call chain_factorise(chain, t, cj, y(1:nq), info)
+    end do
+    call system_clock(k1)
+    ns_factor = 1.0e9_dp*real(k1 - k0, dp)/real(rate, dp)/max(n_rep, 1)
+    if (info /= 0) call fatal_error(error, 'chain factorisation: singular')
+    if (error%code == 0) then
+      call system_clock(k0)
+      do i = 1, max(n_rep, 1)
+        do k = 1, n_rhs
+          call chain_solve(chain, b(:, k), x_chain(:, k))
+        end do
+      end do
+      call system_clock(k1)
+      ns_solve = 1.0e9_dp*real(k1 - k0, dp)/real(rate, dp)/max(n_rep, 1)/max(n_rhs, 1)
+      block%nq = nq; block%nc = nc; block%cj = cj
+      allocate (block%k(nq, nq), block%k_pivots(nq), block%kq(nq, nq), block%b1_rows(nq + 2*nc, nq), &
+                block%g_t(nq, nc), block%cq(nc, nq), block%c_rows(2*nc, nq), block%kinv_b(nq, 2*nc), &
+                block%s(2*nc, 2*nc), block%s_pivots(2*nc))
+      call block_factorise(block, jac, info)
+      if (info /= 0) call fatal_error(error, 'block factorisation of the chain matrix: singular')
+      do k = 1, n_rhs
+        if (error%code == 0) call block_solve(block, b(:, k), x_block(:, k))
+      end do
+    end if
+    call to_status(error, stat, msg)
+  end subroutine rc_probe_chain_solver
 
   !> The GGL iteration matrix J = dF/dy + cj dF/dy' at (y, y') and the block (Schur-complement)
   !> solution of J x = b, with wall time per factorisation and per solve, block against

@@ -1,0 +1,318 @@
+!> An O(n) linear solver of an approximate GGL iteration matrix that fits a chain, handed to
+!> IDA as a matrix-embedded SUNLinearSolver: IDA forms no matrix and calls no Jacobian.  The
+!> solver reads cj, y and t from IDA itself (IDAGetCurrentCj/Y/Time) and decides itself when
+!> to factorise again: SUNDIALS 6.4's IDA never calls the setup of a solver without a matrix
+!> (idaLsInitialize sets lsetup = NULL when there is no matrix and no preconditioner setup;
+!> checked here: with a preconditioner setup it still did not call it).  The policy is IDA's
+!> own for its matrix-based solvers (IDA user guide, "linear solver setup"): factorise when cj
+!> has moved out of [0.6, 1.67] cj_factor (XRATE = 0.25), after a nonlinear convergence
+!> failure, and at least every jacobian_max_age steps.
+!>
+!> The iteration matrix of rotorcable_ggl_residual (unknowns (a, w, l, m) = corrections of
+!> (q, v, lambda, mu)) is replaced by
+!>   [ cj I      -I               0      G^T ] [a]   [b1]
+!>   [ C         cj M + D        -G^T    0   ] [w] = [b2]
+!>   [ G          0               0      0   ] [l]   [b3]
+!>   [ 0          G               0      0   ] [m]   [b4]
+!> where C and D are the constant diagonal joint stiffness and damping of the loads
+!> (load_term%joint_diagonal: the joint springs and dampers, eq. 4.78-4.86).  Dropped are the
+!> rest of dF_v/dq and dF_v/dv (geometric stiffness of gravity, of the centrifugal field and
+!> of the clamp reaction G^T lambda; gyroscopic, Coriolis and drag damping), d(G^T mu)/dq
+!> (O(|mu|), mu = 0 on the exact solution) and d(G v)/dq.  Why IDA's modified Newton still
+!> converges: after dividing the v rows by cj^2, every dropped term is O((h w)^2) (stiffness
+!> against cj^2 M, w the frequency of that stiffness: pendulum, centrifugal ~ Omega) or
+!> O(h w) (damping against cj M, w = Omega or the drag rate; d(G v)/dq against cj G, w ~ |v|/L)
+!> relative to what is kept, with h ~ 1/cj the step.  The error control keeps h w small for
+!> every motion the solution resolves (h Omega << 1 on a rotor deck: the forcing is at
+!> Omega), so the iteration contracts like a Newton iteration with a slightly old matrix.
+!> What can be stiff - the joint springs and dampers, whose modes the steps do not resolve -
+!> is kept exactly.  If the iteration fails anyway IDA cuts the step, which shrinks h w.
+!>
+!> Elimination as in rotorcable_ggl_linear_solver with Kq = C, Cq = 0:
+!>   K = cj M + D + C/cj = cj (M + A),  A = (D + C/cj)/cj: an articulated-body
+!>   factorisation with armature A (rotorcable_articulated_body), O(n), no matrix formed;
+!>   K^-1 B, B = [G^T, C G^T/cj], by 2 nc solves of O(n); S = [G; G] K^-1 B - [0, G G^T; 0, 0]
+!>   (2 nc x 2 nc, LAPACK LU).  Setup O(n nc), solve O(n nc).
+module rotorcable_chain_linear_solver
+  use, intrinsic :: iso_c_binding, only: c_int, c_double, c_ptr, c_long, c_null_ptr, c_funloc, c_loc, &
+                                         c_f_pointer, c_associated
+  use rotorcable_kinds, only: dp
+  use rotorcable_linalg, only: dgetrf, dgetrs
+  use rotorcable_model, only: model_type, positions_at, joint_diagonal, mass_matrix
+  use rotorcable_articulated_body, only: articulated_factors, articulated_factorise, articulated_solve, &
+                                         articulated_mass_times
+  use rotorcable_ida_binding, only: sun_linear_solver, sun_linear_solver_ops, SUNLinSolNewEmpty, &
+                                    SUNLinSolFreeEmpty, N_VGetArrayPointer, SUNLINEARSOLVER_MATRIX_EMBEDDED, &
+                                    SUNLS_SUCCESS, SUNLS_LUFACT_FAIL, IDAGetCurrentCj, IDAGetCurrentY, &
+                                    IDAGetCurrentTime, IDAGetNumSteps, &
+                                    IDAGetNumNonlinSolvConvFails
+  implicit none
+  private
+  public :: ggl_chain_solver, chain_solver_create, chain_solver_destroy, chain_factorise, chain_solve, &
+            chain_iteration_matrix
+
+  integer(c_int), parameter :: SUNLINEARSOLVER_CUSTOM = 17  !< SUNLinearSolver_ID
+  integer, parameter :: REFINEMENT_STEPS = 3
+
+  !> The factors of one setup and what the solves need.
+  type :: ggl_chain_solver
+    integer :: nq = 0, nc = 0
+    type(model_type), pointer :: model => null()
+    type(c_ptr) :: mem = c_null_ptr           !< IDA memory (cj, y, t at setup)
+    real(dp) :: cj = 1.0_dp                   !< cj of the factors [1/s]
+    integer :: factorisations = 0             !< setups so far
+    logical :: factorised = .false.           !< factors exist
+    integer :: max_age = 50                   !< steps the factors are kept at most
+    integer(c_long) :: factor_step = 0        !< IDA's step count at the factorisation
+    integer(c_long) :: factor_fails = 0       !< IDA's convergence failures then
+    real(dp), allocatable :: stiffness(:)     !< C, diagonal joint stiffness [Nm/rad]
+    real(dp), allocatable :: damping(:)       !< D, diagonal joint damping [Nms/rad]
+    type(articulated_factors) :: aba          !< factors of M + A
+    real(dp), allocatable :: g(:, :)          !< G (nc x nq)
+    real(dp), allocatable :: kinv_b(:, :)     !< K^-1 B (nq x 2 nc)
+    real(dp), allocatable :: s(:, :)          !< LU factors of S (2 nc x 2 nc)
+    integer, allocatable :: s_pivots(:)
+    type(c_ptr) :: handle = c_null_ptr        !< the SUNLinearSolver wrapping this object
+  end type ggl_chain_solver
+
+contains
+
+  !> Size the solver for the model; with ctx, also wrap it as a SUNLinearSolver (then the
+  !> object must stay in place, target, until chain_solver_destroy).
+  subroutine chain_solver_create(self, model, mem, ctx, max_age)
+    type(ggl_chain_solver), intent(inout), target :: self  !< solver object
+    type(model_type), intent(in), target :: model  !< model (outlives the solver)
+    type(c_ptr), intent(in) :: mem            !< IDA memory (c_null_ptr for a probe)
+    type(c_ptr), intent(in), optional :: ctx  !< SUNContext
+    integer, intent(in), optional :: max_age  !< steps the factors are kept at most
+    type(sun_linear_solver), pointer :: ls
+    type(sun_linear_solver_ops), pointer :: ops
+    self%model => model
+    self%mem = mem
+    self%nq = model%nq; self%nc = model%nc
+    if (present(max_age)) self%max_age = max_age
+    allocate (self%stiffness(self%nq), self%damping(self%nq), self%g(self%nc, self%nq), &
+              self%kinv_b(self%nq, 2*self%nc), self%s(2*self%nc, 2*self%nc), self%s_pivots(2*self%nc))
+    if (.not. present(ctx)) return
+    self%handle = SUNLinSolNewEmpty(ctx)
+    call c_f_pointer(self%handle, ls)
+    ls%content = c_loc(self)
+    call c_f_pointer(ls%ops, ops)
+    ops%gettype = c_funloc(chain_gettype)
+    ops%getid = c_funloc(chain_getid)
+    ops%setup = c_funloc(chain_setup)
+    ops%solve = c_funloc(chain_solve_c)
+  end subroutine chain_solver_create
+
+  !> Release the SUNLinearSolver wrapper (the content is Fortran's).
+  subroutine chain_solver_destroy(self)
+    type(ggl_chain_solver), intent(inout) :: self  !< solver object
+    if (c_associated(self%handle)) call SUNLinSolFreeEmpty(self%handle)
+    self%handle = c_null_ptr
+  end subroutine chain_solver_destroy
+
+  !> Factorise the approximate iteration matrix at (t, q) and cj.  info > 0: singular.
+  subroutine chain_factorise(self, t, cj, q, info)
+    type(ggl_chain_solver), intent(inout) :: self  !< solver object
+    real(dp), intent(in) :: t, cj             !< time [s], IDA's cj [1/s]
+    real(dp), intent(in) :: q(:)              !< coordinates [rad]
+    integer, intent(out) :: info              !< 0 = ok
+    integer :: nq, nc, k
+    nq = self%nq; nc = self%nc
+    self%cj = cj
+    self%factorised = .false.
+    self%factorisations = self%factorisations + 1
+    call positions_at(self%model, t, q)
+    call joint_diagonal(self%model, self%stiffness, self%damping)
+    call articulated_factorise(self%model%chain, self%model%st, (self%damping + self%stiffness/cj)/cj, self%aba, info)
+    self%factorised = info == 0
+    if (info /= 0 .or. nc == 0) return
+    call self%model%tip%jacobian(self%model%chain, self%model%st, self%g)
+    do k = 1, nc
+      call k_solve(self, self%g(k, :), self%kinv_b(:, k))
+      call k_solve(self, self%stiffness*self%g(k, :)/cj, self%kinv_b(:, nc + k))
+    end do
+    self%s(1:nc, :) = matmul(self%g, self%kinv_b)
+    self%s(nc + 1:2*nc, :) = self%s(1:nc, :)
+    self%s(1:nc, nc + 1:2*nc) = self%s(1:nc, nc + 1:2*nc) - matmul(self%g, transpose(self%g))
+    call dgetrf(2*nc, 2*nc, self%s, 2*nc, self%s_pivots, info)
+    self%factorised = info == 0
+  end subroutine chain_factorise
+
+  !> x = K^-1 b = (M + A)^-1 b / cj.
+  subroutine k_solve(self, b, x)
+    type(ggl_chain_solver), intent(in) :: self
+    real(dp), intent(in) :: b(:)
+    real(dp), intent(out) :: x(:)
+    call articulated_solve(self%model%chain, self%aba, b/self%cj, x)
+  end subroutine k_solve
+
+  !> Solve the approximate iteration matrix: x = J^-1 b (x may not alias b), O(n nc), with one
+  !> step of iterative refinement.  The articulated-body recursion is not backward stable where
+  !> a joint's D_j is ill-conditioned (a nearly straight zy joint, whose gamma turns the rest of
+  !> the chain about its own axis): measured backward errors of 1e-11 against LU's 1e-18 on
+  !> the 40-body decay deck, enough to stall IDA's Newton iteration at cj ~ 1e8, where cj M
+  !> swamps every other entry.  One refinement step with the residual b - J x computed in O(n)
+  !> (M w by Newton-Euler, which is backward stable) restores a backward error of order eps
+  !> (Higham, Accuracy and Stability of Numerical Algorithms, 2002, section 12.2).
+  subroutine chain_solve(self, b, x)
+    type(ggl_chain_solver), intent(in) :: self  !< factorised solver
+    real(dp), intent(in) :: b(:)              !< right-hand side (b1, b2, b3, b4)
+    real(dp), intent(out) :: x(:)             !< solution (a, w, l, m)
+    real(dp) :: r(size(b)), dx(size(b))
+    integer :: k
+    call chain_solve_once(self, b, x)
+    do k = 1, REFINEMENT_STEPS
+      call chain_apply(self, x, r)
+      r = b - r
+      call chain_solve_once(self, r, dx)
+      x = x + dx
+    end do
+  end subroutine chain_solve
+
+  !> J x for the approximate iteration matrix, O(n nc).
+  subroutine chain_apply(self, x, jx)
+    type(ggl_chain_solver), intent(in) :: self  !< factorised solver
+    real(dp), intent(in) :: x(:)              !< (a, w, l, m)
+    real(dp), intent(out) :: jx(:)            !< J x
+    real(dp) :: mw(self%nq)
+    integer :: nq, nc
+    nq = self%nq; nc = self%nc
+    call articulated_mass_times(self%model%chain, self%aba, x(nq + 1:2*nq), mw)
+    jx(1:nq) = self%cj*x(1:nq) - x(nq + 1:2*nq)
+    jx(nq + 1:2*nq) = self%stiffness*x(1:nq) + self%cj*mw + self%damping*x(nq + 1:2*nq)
+    if (nc > 0) then
+      jx(1:nq) = jx(1:nq) + matmul(x(2*nq + nc + 1:2*nq + 2*nc), self%g)
+      jx(nq + 1:2*nq) = jx(nq + 1:2*nq) - matmul(x(2*nq + 1:2*nq + nc), self%g)
+      jx(2*nq + 1:2*nq + nc) = matmul(self%g, x(1:nq))
+      jx(2*nq + nc + 1:2*nq + 2*nc) = matmul(self%g, x(nq + 1:2*nq))
+    end if
+  end subroutine chain_apply
+
+  !> One solve with the factors.
+  subroutine chain_solve_once(self, b, x)
+    type(ggl_chain_solver), intent(in) :: self  !< factorised solver
+    real(dp), intent(in) :: b(:)              !< right-hand side (b1, b2, b3, b4)
+    real(dp), intent(out) :: x(:)             !< solution (a, w, l, m)
+    real(dp) :: w(self%nq), z(2*self%nc), cj
+    integer :: nq, nc, info
+    nq = self%nq; nc = self%nc; cj = self%cj
+    call k_solve(self, b(nq + 1:2*nq) - self%stiffness*b(1:nq)/cj, w)     ! K^-1 r2
+    x(1:nq) = b(1:nq)
+    if (nc > 0) then
+      z(1:nc) = cj*b(2*nq + 1:2*nq + nc) - matmul(self%g, b(1:nq)) - matmul(self%g, w)   ! rc - C K^-1 r2
+      z(nc + 1:2*nc) = b(2*nq + nc + 1:2*nq + 2*nc) - matmul(self%g, w)
+      call dgetrs('N', 2*nc, 1, self%s, 2*nc, self%s_pivots, z, 2*nc, info)
+      w = w + matmul(self%kinv_b, z)                                      ! + K^-1 B z
+      x(1:nq) = x(1:nq) - matmul(z(nc + 1:2*nc), self%g)                  ! b1 - G^T m
+      x(2*nq + 1:2*nq + 2*nc) = z
+    end if
+    x(1:nq) = (x(1:nq) + w)/cj
+    x(nq + 1:2*nq) = w
+  end subroutine chain_solve_once
+
+  !> The approximate iteration matrix that chain_solve inverts, dense (n x n), for the tests:
+  !> O(n^2) memory and O(n^2) work by the composite rigid bodies, never used in a run.
+  subroutine chain_iteration_matrix(self, t, cj, q, jac)
+    type(ggl_chain_solver), intent(inout) :: self  !< solver object
+    real(dp), intent(in) :: t, cj             !< time [s], cj [1/s]
+    real(dp), intent(in) :: q(:)              !< coordinates
+    real(dp), intent(out) :: jac(:, :)        !< (n, n)
+    real(dp) :: m(self%nq, self%nq)
+    integer :: nq, nc, k
+    nq = self%nq; nc = self%nc
+    jac = 0.0_dp
+    call mass_matrix(self%model, t, q, m)
+    call joint_diagonal(self%model, self%stiffness, self%damping)
+    jac(nq + 1:2*nq, nq + 1:2*nq) = cj*m
+    do k = 1, nq
+      jac(k, k) = cj
+      jac(k, nq + k) = -1.0_dp
+      jac(nq + k, k) = self%stiffness(k)
+      jac(nq + k, nq + k) = jac(nq + k, nq + k) + self%damping(k)
+    end do
+    if (nc > 0) then
+      call self%model%tip%jacobian(self%model%chain, self%model%st, self%g)
+      jac(1:nq, 2*nq + nc + 1:) = transpose(self%g)
+      jac(nq + 1:2*nq, 2*nq + 1:2*nq + nc) = -transpose(self%g)
+      jac(2*nq + 1:2*nq + nc, 1:nq) = self%g
+      jac(2*nq + nc + 1:, nq + 1:2*nq) = self%g
+    end if
+  end subroutine chain_iteration_matrix
+
+  integer(c_int) function chain_gettype(ls) bind(C)
+    type(c_ptr), value :: ls
+    chain_gettype = SUNLINEARSOLVER_MATRIX_EMBEDDED
+  end function chain_gettype
+
+  integer(c_int) function chain_getid(ls) bind(C)
+    type(c_ptr), value :: ls
+    chain_getid = SUNLINEARSOLVER_CUSTOM
+  end function chain_getid
+
+  !> SUNLinSolSetup (a = NULL): kept for a SUNDIALS that calls it; factorises at IDA's
+  !> current iterate.
+  integer(c_int) function chain_setup(ls, a) bind(C)
+    type(c_ptr), value :: ls, a
+    type(sun_linear_solver), pointer :: wrapper
+    type(ggl_chain_solver), pointer :: self
+    call c_f_pointer(ls, wrapper)
+    call c_f_pointer(wrapper%content, self)
+    chain_setup = SUNLS_SUCCESS
+    if (.not. factorise_at_current(self)) chain_setup = SUNLS_LUFACT_FAIL
+  end function chain_setup
+
+  !> Factorise at IDA's current cj, iterate y and time; .false. if a factor is singular.
+  logical function factorise_at_current(self) result(ok)
+    type(ggl_chain_solver), intent(inout) :: self
+    type(c_ptr) :: ycur
+    real(c_double), pointer :: y(:)
+    real(c_double) :: cj, t
+    integer(c_int) :: flag
+    integer :: info
+    flag = IDAGetCurrentCj(self%mem, cj)
+    flag = IDAGetCurrentTime(self%mem, t)
+    flag = IDAGetCurrentY(self%mem, ycur)
+    flag = IDAGetNumSteps(self%mem, self%factor_step)
+    flag = IDAGetNumNonlinSolvConvFails(self%mem, self%factor_fails)
+    call c_f_pointer(N_VGetArrayPointer(ycur), y, [2*self%nq + 2*self%nc])
+    call chain_factorise(self, t, cj, y(1:self%nq), info)
+    ok = info == 0
+  end function factorise_at_current
+
+  !> SUNLinSolSolve: x = J^-1 b, factorising first when the policy of the module header says
+  !> so.  IDA itself scales the solution by 2/(1 + cj/cj_factor) when cj has moved since the
+  !> factorisation (checked: scaling here as well doubled the error-test failures of the
+  !> six-link swing).  A singular factor is recoverable (IDA cuts the step).
+  integer(c_int) function chain_solve_c(ls, a, x, b, tol) bind(C)
+    type(c_ptr), value :: ls, a, x, b
+    real(c_double), value :: tol
+    type(sun_linear_solver), pointer :: wrapper
+    type(ggl_chain_solver), pointer :: self
+    real(c_double), pointer :: xv(:), bv(:)
+    real(c_double) :: cj, ratio
+    integer(c_long) :: steps, fails
+    integer(c_int) :: flag
+    integer :: n
+    call c_f_pointer(ls, wrapper)
+    call c_f_pointer(wrapper%content, self)
+    chain_solve_c = SUNLS_SUCCESS
+    flag = IDAGetCurrentCj(self%mem, cj)
+    flag = IDAGetNumSteps(self%mem, steps)
+    flag = IDAGetNumNonlinSolvConvFails(self%mem, fails)
+    ratio = 0.0_dp
+    if (self%factorised) ratio = cj/self%cj
+    if (ratio < 0.6_dp .or. ratio > 1.0_dp/0.6_dp .or. fails /= self%factor_fails .or. &
+        steps - self%factor_step >= self%max_age .or. steps < self%factor_step) then
+      if (.not. factorise_at_current(self)) then
+        chain_solve_c = SUNLS_LUFACT_FAIL
+        return
+      end if
+    end if
+    n = 2*self%nq + 2*self%nc
+    call c_f_pointer(N_VGetArrayPointer(x), xv, [n])
+    call c_f_pointer(N_VGetArrayPointer(b), bv, [n])
+    call chain_solve(self, bv, xv)
+  end function chain_solve_c
+
+end module rotorcable_chain_linear_solver
