@@ -74,10 +74,20 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
             life_text = "no damage" if life is None else f"{_num(life, 3)} h"
             lines.append(f"  fatigue hotspot {h['rank']}: {h['quantity']}, life {life_text}")
     if "refinement" in s:
-        lines.append("  converged values (Richardson over n, 2n, 4n):")
-        for name, r in list(s["refinement"]["quantities"].items())[:8]:
+        q = {k: r for k, r in s["refinement"]["quantities"].items() if "extrapolated" in r}
+        # Frequencies, peak loads and the worst joint's DEL first; the clamp-load maxima and
+        # DELs are in refinement.csv and report.html.
+        first = [k for k in q if k.startswith(("f", "peak", "DEL strain", "DEL bending", "F_", "M_", "tip",
+                                               "decay"))]
+        shown = (first or list(q))[:10]
+        lines.append("  converged values (Richardson over n = "
+                     + ", ".join(str(n) for n in s["refinement"]["n"]) + "):")
+        for name in shown:
+            r = q[name]
             lines.append(f"    {name:<26}{_num(r['extrapolated'])} +- {_num(r['error_estimate'], 2)} "
                          f"(order {r['observed_order']:.2f})")
+        if len(q) > len(shown):
+            lines.append(f"    ... {len(q) - len(shown)} more (clamp loads, DELs) in refinement.csv")
     for w in s.get("warnings", []):
         lines.append(f"  warning: {w}")
     if files:

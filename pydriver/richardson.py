@@ -143,10 +143,11 @@ def richardson(coarse: float, medium: float, fine: float, expected_order: float 
     d_cm = ms - cs                        # coarse -> medium change
     d_mf = fs - ms                        # medium -> fine change
 
-    def result(p_obs: float, extrapolated_scaled: float, warning: str | None) -> Extrapolation:
+    def result(p_obs: float, extrapolated_scaled: float, warning: str | None,
+               error_at_least: float = 0.0) -> Extrapolation:
         try:
             extrapolated = math.ldexp(extrapolated_scaled, power)
-            error = math.ldexp(abs(extrapolated_scaled - fs), power)
+            error = math.ldexp(max(abs(extrapolated_scaled - fs), error_at_least), power)
         except OverflowError:
             raise ValueError(f"richardson: extrapolation of ({c!r}, {m!r}, {f!r}) overflows") from None
         return Extrapolation(values=(c, m, f), extrapolated=extrapolated, observed_order=p_obs,
@@ -172,18 +173,21 @@ def richardson(coarse: float, medium: float, fine: float, expected_order: float 
 
     # Logarithms of the two magnitudes separately: their ratio could overflow.
     p_obs = (math.log(abs(d_cm)) - math.log(abs(d_mf))) / math.log(r)
+    # Outside the asymptotic range the expected-order correction is no error bound: the error
+    # estimate is then at least the last change (oscillating, diverging) or the correction with
+    # the observed order, whichever is larger (a conservative bar, as Roache's safety factor).
     if (d_cm > 0.0) != (d_mf > 0.0):
-        return result(p_obs, fallback,
+        return result(p_obs, fallback, error_at_least=abs(d_mf), warning=
                       f"oscillating convergence: the changes coarse->medium ({_unscaled_text(d_cm, power)}) and "
                       f"medium->fine ({_unscaled_text(d_mf, power)}) have opposite signs; extrapolated with the "
                       f"expected order {p_exp:g}, the error estimate may be unreliable")
     if p_obs <= 0.0:
-        return result(p_obs, fallback,
+        return result(p_obs, fallback, error_at_least=abs(d_mf), warning=
                       f"observed order {p_obs:.3g} is not positive (the changes do not shrink with "
                       f"refinement) and far from the expected order {p_exp:g}: the values may not be "
                       "in the asymptotic range; extrapolated with the expected order")
     if abs(p_obs - p_exp) > tol:
-        return result(p_obs, fallback,
+        return result(p_obs, fallback, error_at_least=abs(_correction(d_mf, r, p_obs)), warning=
                       f"observed order {p_obs:.3g} is far from the expected order {p_exp:g} "
                       f"(tolerance {tol:g}): the values may not be in the asymptotic range; "
                       "extrapolated with the expected order")

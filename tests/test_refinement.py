@@ -92,12 +92,15 @@ def test_refined_start_is_the_same_polygon():
 
 def test_far_order_is_a_warning():
     """Values converging at first order against an expected second order: extrapolated with
-    the expected order and a warning that names the quantity."""
+    the expected order, a warning that names the quantity, and an error bar that still covers
+    the true error (the observed order's correction, here the last change 1/32)."""
     summaries = [{"analysis": "modal", "frequencies_hz": [10.0 + 1.0 / n]} for n in (8, 16, 32)]
     refinement, warnings = extrapolate(summaries, [8, 16, 32], expected_order=2.0)
     q = refinement["quantities"]["f1 [Hz]"]
     assert q["observed_order"] == pytest.approx(1.0, rel=1e-9)
     assert q["warning"] and len(warnings) == 1 and "f1 [Hz]" in warnings[0]
+    assert q["error_estimate"] == pytest.approx(1.0 / 32, rel=1e-12)
+    assert abs(q["extrapolated"] - 10.0) <= q["error_estimate"]
 
 
 def test_refinement_needs_a_cable():
