@@ -33,14 +33,19 @@ def test_flap_and_lag_split_by_the_rotor_speed():
     the flap mode stiffens with the centrifugal tension and the lag mode less by exactly the
     in-plane centrifugal term -m Omega^2: w_flap^2 - w_lag^2 = Omega^2 for every speed (the
     shapes are the same; Coriolis couples lag only to the axial motion an inextensible chain
-    does not have).  To 1e-6 relative (eigen-solver round-off ~1e-10)."""
+    does not have).  To 1e-6 relative (eigen-solver round-off ~1e-10).
+
+    At rest the pair is degenerate and LAPACK returns an arbitrary, CPU-dependent basis of it;
+    the diagram numbers the pair as the rotor splits it (ascending frequency at the next
+    speed), so mode 1 is the lag mode and mode 2 the flap mode on every machine."""
     s = pydriver.run_deck(radial_cantilever(60.0)).summary
     rpm = np.array(s["rpm"])
     w = 2 * np.pi * np.array(s["frequencies_hz"])
     omega = rpm * 2 * np.pi / 60
     assert w[0, 0] == pytest.approx(w[0, 1], rel=1e-9)
-    split = w[1:, 0]**2 - w[1:, 1]**2
+    split = w[1:, 1]**2 - w[1:, 0]**2
     assert np.max(np.abs(split / omega[1:]**2 - 1)) < 1e-6
+    assert s["min_mac"] > 0.99
 
 
 def test_southwell_coefficient_of_the_first_flap_mode():
@@ -52,7 +57,7 @@ def test_southwell_coefficient_of_the_first_flap_mode():
     rpm = 0.1 * w0 * 60 / (2 * np.pi)
     s = pydriver.run_deck(radial_cantilever(rpm, n_speeds=2)).summary
     w = 2 * np.pi * np.array(s["frequencies_hz"])
-    k = (w[1, 0]**2 - w[0, 0]**2) / (rpm * 2 * np.pi / 60)**2
+    k = (w[1, 1]**2 - w[0, 1]**2) / (rpm * 2 * np.pi / 60)**2     # mode 2: flap (see above)
     assert k == pytest.approx(1.193, rel=0.01)
 
 
@@ -97,3 +102,19 @@ def test_an_overdamped_mode_has_no_crossings():
     oscillating = np.array([[5.0], [3.0], [2.0], [1.0]])
     found = crossings(rpm, oscillating, 1, (0.0, 300.0))
     assert [c["harmonic"] for c in found] == [1] and 100.0 < found[0]["rpm"] < 200.0
+
+
+@pytest.mark.parametrize("angle", [0.0, 0.3, 1.2, 2.9])
+def test_a_degenerate_pair_is_numbered_as_the_next_speed_splits_it(angle):
+    """Whatever basis the eigen-solver returns for a degenerate pair (here: the pair turned by
+    any angle inside its plane), the resolved shapes are the next speed's modes projected onto
+    the pair's space, in the next speed's ascending order: exact up to round-off (1e-12)."""
+    from pydriver.analyses.campbell import resolve_degenerate
+    m = np.diag([2.0, 2.0, 1.0, 1.0])
+    c, s_ = np.cos(angle), np.sin(angle)
+    shapes = np.array([[c, -s_, 0, 0], [s_, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], complex)
+    sv = np.array([1j, 1j, 2j, 3j])
+    next_shapes = np.array([[0, 1, 0, 0], [1, 0, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], complex)
+    next_sv = np.array([0.9j, 1.1j, 2j, 3j])
+    out = resolve_degenerate(shapes, sv, 3, next_shapes, next_sv, m)
+    assert np.allclose(out, next_shapes, atol=1e-12)

@@ -50,6 +50,44 @@ def mac(a: np.ndarray, b: np.ndarray, m_full: np.ndarray) -> np.ndarray:
     return np.abs(cross) ** 2 / np.outer(na, nb)
 
 
+def degenerate_clusters(sv: np.ndarray, count: int, rel: float = 1e-7) -> list[np.ndarray]:
+    """Groups (two or more) among the first ``count`` eigenvalues that coincide to ``rel``:
+    a degenerate mode pair such as the flap and lag modes of an isotropic cable at rest."""
+    out, i = [], 0
+    while i < count:
+        j = i + 1
+        while j < len(sv) and abs(sv[j] - sv[i]) <= rel * max(abs(sv[i]), 1e-300):
+            j += 1
+        if j - i > 1:
+            out.append(np.arange(i, j))
+        i = j
+    return out
+
+
+def resolve_degenerate(shapes: np.ndarray, sv: np.ndarray, count: int, next_shapes: np.ndarray,
+                       next_sv: np.ndarray, m_full: np.ndarray) -> np.ndarray:
+    """Shapes with every degenerate cluster's basis replaced by the one the next speed picks.
+
+    Within a degenerate eigenspace any basis is an eigenbasis, and LAPACK returns one set by
+    round-off: the flap/lag pair of an isotropic cable at rest comes out in a different mix
+    on another CPU, and MAC tracking then labels the modes at random.  The speed next on the
+    grid splits the cluster; its modes that lie most in the cluster's space, projected onto it
+    (mass-orthogonally) and ordered by their own frequency, are the basis that tracking can
+    follow.  Projection: P w = V (V^H M V)^-1 V^H M w."""
+    out = shapes.copy()
+    for idx in degenerate_clusters(sv, count):
+        v = shapes[:, idx]
+        gram = v.conj().T @ m_full @ v
+        coeff = np.linalg.solve(gram, v.conj().T @ m_full @ next_shapes)
+        proj = v @ coeff
+        # Fraction of each next-speed shape inside the cluster's space (1 = entirely).
+        inside = (np.real(np.einsum("ij,ik,kj->j", proj.conj(), m_full, proj))
+                  / np.real(np.einsum("ij,ik,kj->j", next_shapes.conj(), m_full, next_shapes)))
+        chosen = np.sort(np.argsort(-inside)[:len(idx)])            # next_sv is ascending
+        out[:, idx] = proj[:, chosen]
+    return out
+
+
 def crossings(rpm, freqs, harmonics: int, op_range) -> list[dict]:
     """Where a tracked mode's frequency meets k/rev inside the operating range (linear
     interpolation between grid speeds).  Only between speeds where the mode oscillates at
@@ -85,12 +123,17 @@ def campbell_analysis(model) -> Result:
     zetas = np.zeros((len(rpm), n_modes))
     macs = np.ones((len(rpm), n_modes))
     q_prev, tracked, unstable = None, None, []
-    for i, r in enumerate(rpm):
+    solved = []
+    for r in rpm:
         m = model.with_changes({key: float(r), "case.analysis": "static"})
         q, lam, _ = m.core.static(m.q0 if q_prev is None else q_prev, 0.0, s["newton_tol"], s["newton_max_iter"])
         q_prev = q
         mats = m.core.modal_matrices(q, lam)
-        sv, shapes, oscillating = complex_modes(mats)
+        solved.append((mats, *complex_modes(mats)))
+    for i, r in enumerate(rpm):
+        mats, sv, shapes, oscillating = solved[i]
+        if i + 1 < len(rpm):
+            shapes = resolve_degenerate(shapes, sv, n_modes, solved[i + 1][2], solved[i + 1][1], mats["M"])
         if tracked is None:
             if np.count_nonzero(oscillating) < n_modes:
                 model.deck.fail("campbell", "n_modes", f"only {np.count_nonzero(oscillating)} oscillating modes "
