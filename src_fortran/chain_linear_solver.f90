@@ -27,6 +27,12 @@
 !> Omega), so the iteration contracts like a Newton iteration with a slightly old matrix.
 !> What can be stiff - the joint springs and dampers, whose modes the steps do not resolve -
 !> is kept exactly.  If the iteration fails anyway IDA cuts the step, which shrinks h w.
+!> Where it does not hold: a large internal force T (the centrifugal tension of a turning
+!> cable) gives a geometric stiffness of T/l per joint, whose "string" modes reach n times the
+!> fundamental, so its w is not resolved by the step either; measured contraction factors
+!> rho(J_chain^-1 (J - J_chain)) on the forward-flight decks: 0.8 (thesis chain) and 2.7 (the
+!> cable deck) at cj = 1e3, 0.02 and 0.18 at 1e4, against 0.04 at 1e4 for the decay deck.
+!> There the iteration needs the exact matrix (docs/jacobian.md).
 !>
 !> Elimination as in rotorcable_ggl_linear_solver with Kq = C, Cq = 0:
 !>   K = cj M + D + C/cj = cj (M + A),  A = (D + C/cj)/cj: an articulated-body
@@ -37,10 +43,9 @@ module rotorcable_chain_linear_solver
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_ptr, c_long, c_null_ptr, c_funloc, c_loc, &
                                          c_f_pointer, c_associated
   use rotorcable_kinds, only: dp
-  use rotorcable_linalg, only: dgetrf, dgetrs
+  use rotorcable_linalg, only: dgetrf, dgetrs, dgemm, dgemv
   use rotorcable_model, only: model_type, positions_at, joint_diagonal, mass_matrix
-  use rotorcable_articulated_body, only: articulated_factors, articulated_factorise, articulated_solve, &
-                                         articulated_mass_times
+  use rotorcable_articulated_body, only: articulated_factors, articulated_factorise, articulated_solve
   use rotorcable_ida_binding, only: sun_linear_solver, sun_linear_solver_ops, SUNLinSolNewEmpty, &
                                     SUNLinSolFreeEmpty, N_VGetArrayPointer, SUNLINEARSOLVER_MATRIX_EMBEDDED, &
                                     SUNLS_SUCCESS, SUNLS_LUFACT_FAIL, IDAGetCurrentCj, IDAGetCurrentY, &
@@ -52,7 +57,6 @@ module rotorcable_chain_linear_solver
             chain_iteration_matrix
 
   integer(c_int), parameter :: SUNLINEARSOLVER_CUSTOM = 17  !< SUNLinearSolver_ID
-  integer, parameter :: REFINEMENT_STEPS = 3
 
   !> The factors of one setup and what the solves need.
   type :: ggl_chain_solver
@@ -69,6 +73,7 @@ module rotorcable_chain_linear_solver
     real(dp), allocatable :: damping(:)       !< D, diagonal joint damping [Nms/rad]
     type(articulated_factors) :: aba          !< factors of M + A
     real(dp), allocatable :: g(:, :)          !< G (nc x nq)
+    real(dp), allocatable :: b_cols(:, :)     !< B/cj (nq x 2 nc), the Schur columns' right-hand sides
     real(dp), allocatable :: kinv_b(:, :)     !< K^-1 B (nq x 2 nc)
     real(dp), allocatable :: s(:, :)          !< LU factors of S (2 nc x 2 nc)
     integer, allocatable :: s_pivots(:)
@@ -92,7 +97,8 @@ contains
     self%nq = model%nq; self%nc = model%nc
     if (present(max_age)) self%max_age = max_age
     allocate (self%stiffness(self%nq), self%damping(self%nq), self%g(self%nc, self%nq), &
-              self%kinv_b(self%nq, 2*self%nc), self%s(2*self%nc, 2*self%nc), self%s_pivots(2*self%nc))
+              self%kinv_b(self%nq, 2*self%nc), self%b_cols(self%nq, 2*self%nc), self%s(2*self%nc, 2*self%nc), &
+              self%s_pivots(2*self%nc))
     if (.not. present(ctx)) return
     self%handle = SUNLinSolNewEmpty(ctx)
     call c_f_pointer(self%handle, ls)
@@ -128,88 +134,45 @@ contains
     self%factorised = info == 0
     if (info /= 0 .or. nc == 0) return
     call self%model%tip%jacobian(self%model%chain, self%model%st, self%g)
+    ! K^-1 B, B = [G^T, C G^T/cj], all 2 nc columns in one pass: K^-1 = (M + A)^-1/cj.
     do k = 1, nc
-      call k_solve(self, self%g(k, :), self%kinv_b(:, k))
-      call k_solve(self, self%stiffness*self%g(k, :)/cj, self%kinv_b(:, nc + k))
+      self%b_cols(:, k) = self%g(k, :)/cj
+      self%b_cols(:, nc + k) = self%stiffness*self%g(k, :)/cj**2
     end do
-    self%s(1:nc, :) = matmul(self%g, self%kinv_b)
+    call articulated_solve(self%model%chain, self%aba, self%b_cols, self%kinv_b)
+    call dgemm('N', 'N', nc, 2*nc, nq, 1.0_dp, self%g, nc, self%kinv_b, nq, 0.0_dp, self%s, 2*nc)
     self%s(nc + 1:2*nc, :) = self%s(1:nc, :)
-    self%s(1:nc, nc + 1:2*nc) = self%s(1:nc, nc + 1:2*nc) - matmul(self%g, transpose(self%g))
+    call dgemm('N', 'T', nc, nc, nq, -1.0_dp, self%g, nc, self%g, nc, 1.0_dp, self%s(1, nc + 1), 2*nc)
     call dgetrf(2*nc, 2*nc, self%s, 2*nc, self%s_pivots, info)
     self%factorised = info == 0
   end subroutine chain_factorise
 
-  !> x = K^-1 b = (M + A)^-1 b / cj.
-  subroutine k_solve(self, b, x)
-    type(ggl_chain_solver), intent(in) :: self
-    real(dp), intent(in) :: b(:)
-    real(dp), intent(out) :: x(:)
-    call articulated_solve(self%model%chain, self%aba, b/self%cj, x)
-  end subroutine k_solve
-
-  !> Solve the approximate iteration matrix: x = J^-1 b (x may not alias b), O(n nc), with one
-  !> step of iterative refinement.  The articulated-body recursion is not backward stable where
-  !> a joint's D_j is ill-conditioned (a nearly straight zy joint, whose gamma turns the rest of
-  !> the chain about its own axis): measured backward errors of 1e-11 against LU's 1e-18 on
-  !> the 40-body decay deck, enough to stall IDA's Newton iteration at cj ~ 1e8, where cj M
-  !> swamps every other entry.  One refinement step with the residual b - J x computed in O(n)
-  !> (M w by Newton-Euler, which is backward stable) restores a backward error of order eps
-  !> (Higham, Accuracy and Stability of Numerical Algorithms, 2002, section 12.2).
+  !> Solve the approximate iteration matrix: x = J^-1 b (x may not alias b), O(n nc).  The
+  !> articulated-body factors in their stable form (rotorcable_articulated_body) give a backward
+  !> error of the order of LU's (tests/test_chain_solver.py), so no iterative refinement.
   subroutine chain_solve(self, b, x)
     type(ggl_chain_solver), intent(in) :: self  !< factorised solver
     real(dp), intent(in) :: b(:)              !< right-hand side (b1, b2, b3, b4)
     real(dp), intent(out) :: x(:)             !< solution (a, w, l, m)
-    real(dp) :: r(size(b)), dx(size(b))
-    integer :: k
-    call chain_solve_once(self, b, x)
-    do k = 1, REFINEMENT_STEPS
-      call chain_apply(self, x, r)
-      r = b - r
-      call chain_solve_once(self, r, dx)
-      x = x + dx
-    end do
-  end subroutine chain_solve
-
-  !> J x for the approximate iteration matrix, O(n nc).
-  subroutine chain_apply(self, x, jx)
-    type(ggl_chain_solver), intent(in) :: self  !< factorised solver
-    real(dp), intent(in) :: x(:)              !< (a, w, l, m)
-    real(dp), intent(out) :: jx(:)            !< J x
-    real(dp) :: mw(self%nq)
-    integer :: nq, nc
-    nq = self%nq; nc = self%nc
-    call articulated_mass_times(self%model%chain, self%aba, x(nq + 1:2*nq), mw)
-    jx(1:nq) = self%cj*x(1:nq) - x(nq + 1:2*nq)
-    jx(nq + 1:2*nq) = self%stiffness*x(1:nq) + self%cj*mw + self%damping*x(nq + 1:2*nq)
-    if (nc > 0) then
-      jx(1:nq) = jx(1:nq) + matmul(x(2*nq + nc + 1:2*nq + 2*nc), self%g)
-      jx(nq + 1:2*nq) = jx(nq + 1:2*nq) - matmul(x(2*nq + 1:2*nq + nc), self%g)
-      jx(2*nq + 1:2*nq + nc) = matmul(self%g, x(1:nq))
-      jx(2*nq + nc + 1:2*nq + 2*nc) = matmul(self%g, x(nq + 1:2*nq))
-    end if
-  end subroutine chain_apply
-
-  !> One solve with the factors.
-  subroutine chain_solve_once(self, b, x)
-    type(ggl_chain_solver), intent(in) :: self  !< factorised solver
-    real(dp), intent(in) :: b(:)              !< right-hand side (b1, b2, b3, b4)
-    real(dp), intent(out) :: x(:)             !< solution (a, w, l, m)
-    real(dp) :: w(self%nq), z(2*self%nc), cj
+    real(dp) :: r2(self%nq, 1), w(self%nq, 1), gw(self%nc), z(2*self%nc), cj
     integer :: nq, nc, info
     nq = self%nq; nc = self%nc; cj = self%cj
-    call k_solve(self, b(nq + 1:2*nq) - self%stiffness*b(1:nq)/cj, w)     ! K^-1 r2
+    r2(:, 1) = (b(nq + 1:2*nq) - self%stiffness*b(1:nq)/cj)/cj               ! r2 / cj
+    call articulated_solve(self%model%chain, self%aba, r2, w)                ! K^-1 r2
     x(1:nq) = b(1:nq)
     if (nc > 0) then
-      z(1:nc) = cj*b(2*nq + 1:2*nq + nc) - matmul(self%g, b(1:nq)) - matmul(self%g, w)   ! rc - C K^-1 r2
-      z(nc + 1:2*nc) = b(2*nq + nc + 1:2*nq + 2*nc) - matmul(self%g, w)
+      call dgemv('N', nc, nq, 1.0_dp, self%g, nc, w, 1, 0.0_dp, gw, 1)
+      z(nc + 1:2*nc) = b(2*nq + nc + 1:2*nq + 2*nc) - gw                     ! rc - C K^-1 r2
+      call dgemv('N', nc, nq, -1.0_dp, self%g, nc, b, 1, -1.0_dp, gw, 1)
+      z(1:nc) = cj*b(2*nq + 1:2*nq + nc) + gw
       call dgetrs('N', 2*nc, 1, self%s, 2*nc, self%s_pivots, z, 2*nc, info)
-      w = w + matmul(self%kinv_b, z)                                      ! + K^-1 B z
-      x(1:nq) = x(1:nq) - matmul(z(nc + 1:2*nc), self%g)                  ! b1 - G^T m
+      call dgemv('N', nq, 2*nc, 1.0_dp, self%kinv_b, nq, z, 1, 1.0_dp, w, 1)   ! + K^-1 B z
+      call dgemv('T', nc, nq, -1.0_dp, self%g, nc, z(nc + 1), 1, 1.0_dp, x, 1) ! b1 - G^T m
       x(2*nq + 1:2*nq + 2*nc) = z
     end if
-    x(1:nq) = (x(1:nq) + w)/cj
-    x(nq + 1:2*nq) = w
-  end subroutine chain_solve_once
+    x(1:nq) = (x(1:nq) + w(:, 1))/cj
+    x(nq + 1:2*nq) = w(:, 1)
+  end subroutine chain_solve
 
   !> The approximate iteration matrix that chain_solve inverts, dense (n x n), for the tests:
   !> O(n^2) memory and O(n^2) work by the composite rigid bodies, never used in a run.

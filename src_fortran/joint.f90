@@ -131,13 +131,18 @@ contains
     real(dp), intent(in) :: axes(:, :)        !< (3, ndof) world axes from joint_axes
     real(dp), intent(in) :: rates(:)          !< joint coordinate rates [rad/s]
     real(dp) :: bias(3)
+    ! Fixed-size locals: a cross product of assumed-shape sections or of an expression of them
+    ! makes gfortran allocate a temporary on the heap, here once per body and residual.
+    real(dp) :: a1(3), a2(3), a3(3), w12(3)
     select case (kind)
     case (JOINT_ZY, JOINT_XY)
       ! First axis fixed in the parent, second in the child: same structure for both.
-      bias = rates(1)*rates(2)*cross(axes(:, 1), axes(:, 2))
+      a1 = axes(:, 1); a2 = axes(:, 2)
+      bias = rates(1)*rates(2)*cross(a1, a2)
     case (JOINT_XYZ)
-      bias = rates(1)*rates(2)*cross(axes(:, 1), axes(:, 2)) &
-             + rates(3)*cross(rates(1)*axes(:, 1) + rates(2)*axes(:, 2), axes(:, 3))
+      a1 = axes(:, 1); a2 = axes(:, 2); a3 = axes(:, 3)
+      w12 = rates(1)*a1 + rates(2)*a2
+      bias = rates(1)*rates(2)*cross(a1, a2) + rates(3)*cross(w12, a3)
     case default
       bias = 0.0_dp
     end select

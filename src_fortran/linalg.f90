@@ -5,7 +5,7 @@ module rotorcable_linalg
   implicit none
   private
   public :: solve_dense, solve_least_norm, null_space, solve_spd, singular_values, all_finite
-  public :: dgetrf, dgetrs, dgemv   ! factors kept across solves, products (ggl_linear_solver)
+  public :: dgetrf, dgetrs, dgemv, dgemm   ! factors kept across solves, products (linear solvers)
 
   interface
     subroutine dgesv(n, nrhs, a, lda, ipiv, b, ldb, info)
@@ -52,6 +52,13 @@ module rotorcable_linalg
       real(dp), intent(in) :: alpha, beta, a(lda, *), x(*)
       real(dp), intent(inout) :: y(*)
     end subroutine dgemv
+    subroutine dgemm(transa, transb, m, n, k, alpha, a, lda, b, ldb, beta, c, ldc)
+      import :: dp
+      character, intent(in) :: transa, transb
+      integer, intent(in) :: m, n, k, lda, ldb, ldc
+      real(dp), intent(in) :: alpha, beta, a(lda, *), b(ldb, *)
+      real(dp), intent(inout) :: c(ldc, *)
+    end subroutine dgemm
     subroutine dpotrf(uplo, n, a, lda, info)
       import :: dp
       character, intent(in) :: uplo
