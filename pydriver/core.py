@@ -80,6 +80,16 @@ def _ints(a) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.int32).reshape(-1)
 
 
+def _settings_arrays(settings: dict) -> tuple[np.ndarray, np.ndarray]:
+    """The integrator settings as the core's flat arrays (rotorcable_dae_integrator,
+    settings_from_arrays): reals (rtol, atol, atol_multiplier, h_max), ints (max_steps, linear
+    solver, jacobian_max_age, compiled kernels, analytic Jacobian)."""
+    real = [settings["rtol"], settings["atol"], settings["atol_multiplier"], settings["h_max"]]
+    ints = [settings["max_steps"], LINEAR_SOLVERS[settings["linear_solver"]], settings["jacobian_max_age"],
+            int(settings["vector_kernels"] == "compiled"), int(settings.get("jacobian", "analytic") == "analytic")]
+    return _reals(real), _ints(ints)
+
+
 def _reals(a) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=float).reshape(-1)
 
@@ -178,10 +188,8 @@ class CoreModel:
 
     def start(self, settings: dict, t0: float, q0, v0) -> "CoreSession":
         """Start a time integration; the session's q0, v0 are the consistent start."""
-        real = [settings["rtol"], settings["atol"], settings["atol_multiplier"], settings["h_max"]]
-        ints = [settings["max_steps"], LINEAR_SOLVERS[settings["linear_solver"]], settings["jacobian_max_age"],
-                int(settings["vector_kernels"] == "compiled")]
-        session, q, v, stat, key, msg = _api.rc_dynamic_start(self.handle, _reals(real), _ints(ints), float(t0),
+        real, ints = _settings_arrays(settings)
+        session, q, v, stat, key, msg = _api.rc_dynamic_start(self.handle, real, ints, float(t0),
                                                               _reals(q0), _reals(v0))
         s = CoreSession(self, int(session), q, v)
         if stat:
@@ -226,9 +234,13 @@ class CoreModel:
         _raise(self.deck, stat, "", msg)
         return r
 
-    def iteration_matrix(self, y, yd, cj: float, b, n_rep: int = 1, t: float = 0.0) -> dict:
+    def iteration_matrix(self, y, yd, cj: float, b, n_rep: int = 1, t: float = 0.0,
+                         jacobian: str = "analytic") -> dict:
+        """The GGL iteration matrix at (y, y', cj), its physics columns analytic or by finite
+        differences, with the block solver's solutions of J x = b and the timings."""
         (jac, x, nbf, nbs, ndf, nds, stat, msg) = _probes.rc_probe_iteration_matrix(
-            self.handle, float(t), float(cj), _reals(y), _reals(yd), np.asfortranarray(b, float), int(n_rep))
+            self.handle, float(t), float(cj), _reals(y), _reals(yd), int(jacobian == "analytic"),
+            np.asfortranarray(b, float), int(n_rep))
         _raise(self.deck, stat, "", msg)
         return {"jacobian": jac, "x_block": x, "ns_block_factor": nbf, "ns_block_solve": nbs,
                 "ns_dense_factor": ndf, "ns_dense_solve": nds}
@@ -242,21 +254,28 @@ class CoreModel:
         return {"jacobian": jac, "x_chain": xc, "x_block": xb, "ns_factor": nf, "ns_solve": ns}
 
     def time_kernels(self, y, yd, n_rep: int, t: float = 0.0) -> dict:
-        r, ns_res, ns_jac, ns_mass, stat, msg = _probes.rc_probe_time_kernels(
+        r, ns_res, ns_jac, ns_jac_fd, ns_mass, stat, msg = _probes.rc_probe_time_kernels(
             self.handle, float(t), _reals(y), _reals(yd), int(n_rep))
         _raise(self.deck, stat, "", msg)
-        return {"residual": r, "residual_ns": ns_res, "jacobian_ns": ns_jac, "mass_matrix_ns": ns_mass}
+        return {"residual": r, "residual_ns": ns_res, "jacobian_ns": ns_jac, "jacobian_fd_ns": ns_jac_fd,
+                "mass_matrix_ns": ns_mass}
+
+    def residual_tangent(self, y, yd, dy, dyd, t: float = 0.0) -> np.ndarray:
+        """First-order change of the GGL residual at (y, y') for the change (dy, dyd): the
+        analytic Jacobian's tangent sweep (with dyd = cj dy, the iteration matrix times dy)."""
+        dr, stat, msg = _probes.rc_probe_residual_tangent(self.handle, float(t), _reals(y), _reals(yd),
+                                                          _reals(dy), _reals(dyd))
+        _raise(self.deck, stat, "", msg)
+        return dr
 
     def integrate_timed(self, method: int, settings: dict, t0: float, t_end: float, q0, v0, n_samples: int,
                         baumgarte_omega: float = 50.0) -> dict:
         """One timed integration (1 IDA, 2 GSL rk8pd, 3 GSL msbdf): CM samples (n_samples, n, 3)
         at equally spaced times t0 ... t_end, the end state, statistics, CPU and wall time of
         the integration alone."""
-        real = [settings["rtol"], settings["atol"], settings["atol_multiplier"], settings["h_max"]]
-        ints = [settings["max_steps"], LINEAR_SOLVERS[settings["linear_solver"]], settings["jacobian_max_age"],
-                int(settings["vector_kernels"] == "compiled")]
+        real, ints = _settings_arrays(settings)
         (cm, q_end, v_end, st, cpu, wall, stat, msg) = _probes.rc_probe_integrate(
-            self.handle, int(method), _reals(real), _ints(ints), float(baumgarte_omega), float(t0), float(t_end),
+            self.handle, int(method), real, ints, float(baumgarte_omega), float(t0), float(t_end),
             _reals(q0), _reals(v0), int(n_samples), self.n_bodies)
         _raise(self.deck, stat, "", msg)
         return {"cm_samples": cm.transpose(2, 1, 0).copy(), "q_end": q_end, "v_end": v_end,

@@ -80,4 +80,4 @@ class Model:
         """The &solver values the integrator needs."""
         s = self.deck.values["solver"]
         return {k: s[k] for k in ("rtol", "atol", "atol_multiplier", "h_max", "max_steps", "linear_solver",
-                                  "jacobian_max_age", "vector_kernels")}
+                                  "jacobian", "jacobian_max_age", "vector_kernels")}

@@ -238,8 +238,11 @@ def _keys() -> list[Key]:
             doc="IDA linear solver: Schur-complement blocks of the full iteration matrix (O(n^3)), "
                 "SUNDIALS's dense LU, or 'chain': an O(n) articulated-body solve of an approximate "
                 "iteration matrix (mass, joint springs and dampers, constraints; no Jacobian formed)"))
+    add(Key("solver", "jacobian", "str", default="analytic", choices=("analytic", "finite_difference"),
+            doc="physics columns of the iteration matrix (dF/dq, dF/dv; 'block' and 'dense'): tangent "
+                "sweeps of the residual, exact and O(n^2), or forward differences (the check)"))
     add(Key("solver", "jacobian_max_age", "int", default=50, low=1,
-            doc="steps over which the finite-difference part of the Jacobian is kept"))
+            doc="steps over which the physics part of the Jacobian is kept"))
     add(Key("solver", "vector_kernels", "str", default="compiled", choices=("compiled", "sundials"),
             doc="IDA's N_Vector operations: compiled loops or the library's own"))
     add(Key("solver", "periodic_tol", "real", unit="m", default=1.0e-6, **POS,

@@ -15,7 +15,7 @@ module rotorcable_api
                                       build_finish, thesis_to_coordinates
   use rotorcable_statics, only: static_settings, static_result, solve_static
   use rotorcable_modal, only: modal_analysis, reduced_matrices
-  use rotorcable_dae_integrator, only: integrator_settings, dae_session, session_start, session_advance
+  use rotorcable_dae_integrator, only: integrator_settings, settings_from_arrays, dae_session, session_start, session_advance
   use rotorcable_sampling, only: sample_state, joint_loads, shape_of, support_motion
   implicit none
   private
@@ -294,8 +294,9 @@ contains
   subroutine rc_dynamic_start(handle, settings_real, settings_int, t0, nq, q0, v0, session, q, v, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
     real(c_double), intent(in) :: settings_real(4)  !< rtol, atol, atol_multiplier, h_max
-    integer(c_int), intent(in) :: settings_int(4)   !< max_steps, linear solver (1 block, 2 dense),
-                                                    !< jacobian_max_age, compiled vector kernels (1/0)
+    integer(c_int), intent(in) :: settings_int(5)   !< max_steps, linear solver (1 block, 2 dense, 3 chain),
+                                                    !< jacobian_max_age, compiled vector kernels (1/0),
+                                                    !< analytic Jacobian (1/0)
     real(c_double), intent(in) :: t0              !< start time [s]
     integer(c_int), intent(in) :: nq              !< coordinates
     real(c_double), intent(in) :: q0(nq), v0(nq)  !< start state
@@ -313,10 +314,7 @@ contains
     q = q0; v = v0
     model => model_of(handle, error)
     if (error%code == 0) then
-      settings%rtol = settings_real(1); settings%atol = settings_real(2)
-      settings%atol_multiplier = settings_real(3); settings%h_max = settings_real(4)
-      settings%max_steps = settings_int(1); settings%linear_solver = settings_int(2)
-      settings%jacobian_max_age = settings_int(3); settings%compiled_vector_kernels = settings_int(4) /= 0
+      settings = settings_from_arrays(settings_real, settings_int)
       call register_session(handle, s, h)
       session = h
       call session_start(s, model, settings, t0, q, v, error)

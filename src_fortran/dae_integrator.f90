@@ -21,8 +21,8 @@ module rotorcable_dae_integrator
   use rotorcable_chain_linear_solver, only: ggl_chain_solver, chain_solver_create, chain_solver_destroy
   implicit none
   private
-  public :: integrator_settings, solver_stats, consistent_start, dae_session, session_start, session_advance, &
-            session_end, integrate, LINEAR_SOLVER_BLOCK, LINEAR_SOLVER_DENSE, LINEAR_SOLVER_CHAIN
+  public :: integrator_settings, settings_from_arrays, solver_stats, consistent_start, dae_session, session_start, &
+            session_advance, session_end, integrate, LINEAR_SOLVER_BLOCK, LINEAR_SOLVER_DENSE, LINEAR_SOLVER_CHAIN
 
   integer, parameter :: LINEAR_SOLVER_BLOCK = 1  !< Schur-complement factorisation (ggl_linear_solver)
   integer, parameter :: LINEAR_SOLVER_DENSE = 2  !< SUNDIALS's dense LU of the whole matrix
@@ -42,6 +42,7 @@ module rotorcable_dae_integrator
     integer :: linear_solver = LINEAR_SOLVER_BLOCK  !< block needs the structured Jacobian (cj)
     integer :: jacobian_max_age = 50          !< steps over which the physics Jacobian is kept (CVODE: msbj = 51)
     logical :: compiled_vector_kernels = .true.  !< nvector_kernels instead of libsundials's own
+    logical :: analytic_jacobian = .true.     !< physics Jacobian by tangent sweeps (else differences)
   end type integrator_settings
 
   !> Solver statistics reported in summary.json.
@@ -105,6 +106,20 @@ contains
                                     '(dependent constraints, zero mass or a non-finite state)')
   end subroutine consistent_start
 
+  !> Settings from the flat arrays of the f2py boundary: reals (rtol, atol, atol_multiplier,
+  !> h_max), ints (max_steps, linear solver, jacobian_max_age, compiled kernels 1/0, analytic
+  !> Jacobian 1/0).
+  pure function settings_from_arrays(reals, ints) result(settings)
+    real(dp), intent(in) :: reals(4)          !< real settings
+    integer, intent(in) :: ints(5)            !< integer settings
+    type(integrator_settings) :: settings
+    settings%rtol = reals(1); settings%atol = reals(2)
+    settings%atol_multiplier = reals(3); settings%h_max = reals(4)
+    settings%max_steps = ints(1); settings%linear_solver = ints(2)
+    settings%jacobian_max_age = ints(3); settings%compiled_vector_kernels = ints(4) /= 0
+    settings%analytic_jacobian = ints(5) /= 0
+  end function settings_from_arrays
+
   !> Set up IDA for the model from (q0, v0) at t0 (made consistent here).  On return
   !> q0, v0 hold the consistent start.
   subroutine session_start(s, model, settings, t0, q0, v0, error)
@@ -160,6 +175,7 @@ contains
     s%mem = IDACreate(s%ctx)
     s%ud%mem = s%mem
     s%ud%jacobian_max_age = settings%jacobian_max_age
+    s%ud%analytic = settings%analytic_jacobian
     call check(s, IDAInit(s%mem, c_funloc(ggl_residual), real(t0, c_double), s%yy, s%yp), 'IDAInit', error)
     call check(s, IDASVtolerances(s%mem, real(settings%rtol, c_double), s%atol), 'IDASVtolerances', error)
     call check(s, IDASetUserData(s%mem, c_loc(s%ud)), 'IDASetUserData', error)

@@ -9,13 +9,14 @@
 module rotorcable_ggl_residual
   use, intrinsic :: iso_c_binding, only: c_int, c_long, c_double, c_ptr, c_null_ptr, c_f_pointer
   use rotorcable_kinds, only: dp
-  use rotorcable_model, only: model_type, eom_residual, constraint_jacobian, mass_matrix
+  use rotorcable_model, only: model_type, eom_residual, eom_residual_tangent, constraint_jacobian, mass_matrix
   use rotorcable_ida_binding, only: N_VGetArrayPointer, SUNDenseMatrix_Data, IDAGetNumSteps, &
                                     IDAGetNumNonlinSolvConvFails
   use rotorcable_ggl_linear_solver, only: ggl_block_solver
   implicit none
   private
-  public :: ida_user_data, ggl_residual, ggl_residual_dense, ggl_jacobian, ggl_jacobian_dense, physics_jacobian
+  public :: ida_user_data, ggl_residual, ggl_residual_dense, ggl_residual_tangent, ggl_jacobian, ggl_jacobian_dense, &
+            physics_jacobian
 
   !> User data handed to IDA (c_loc), turned back with c_f_pointer in the callbacks.
   type :: ida_user_data
@@ -30,6 +31,7 @@ module rotorcable_ggl_residual
     integer(c_long) :: physics_step = 0       !< IDA's step count when they were formed
     integer(c_long) :: physics_fails = 0      !< IDA's convergence failures then
     integer :: jacobian_max_age = 1           !< steps before they are formed again
+    logical :: analytic = .true.              !< physics columns by tangent sweeps (else differences)
     integer :: physics_evals = 0              !< how often they were formed
     character(len=512) :: ida_message = ''
   end type ida_user_data
@@ -83,22 +85,88 @@ contains
   !> forward differences of the residual at fixed y', which never multiply cj.  IDA's DQ
   !> perturbs y and y' = cj*inc together, so at the tiny first steps of tight tolerances
   !> (cj ~ 1e20) its columns are round-off: the corrector then fails at t = 0.
-  subroutine ggl_jacobian_dense(model, t, cj, y, yd, jac)
+  subroutine ggl_jacobian_dense(model, t, cj, y, yd, jac, analytic)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t, cj             !< time [s], IDA's cj = alpha/h [1/s]
     real(dp), intent(in) :: y(:), yd(:)       !< unknowns and their derivatives
     real(dp), intent(out) :: jac(:, :)        !< (n,n) iteration matrix
-    call physics_jacobian(model, t, y, yd, jac)
+    logical, intent(in) :: analytic           !< physics columns by tangent sweeps, else differences
+    call physics_jacobian(model, t, y, yd, jac, analytic)
     call add_exact_blocks(model, t, cj, y, jac)
   end subroutine ggl_jacobian_dense
 
-  !> The smooth physics columns dF/dq and dF/dv of the GGL residual (forward differences at
-  !> fixed y'); they do not depend on cj and may be kept over several steps.
-  subroutine physics_jacobian(model, t, y, yd, jac)
+  !> The smooth physics columns dF/dq and dF/dv of the GGL residual at fixed y'; they do not
+  !> depend on cj and may be kept over several steps.  Analytic: one tangent sweep
+  !> (ggl_residual_tangent) per column, each starting at the body whose joint the column moves,
+  !> O(n^2) in all and exact to round-off.  Otherwise forward differences, kept as the check
+  !> of the analytic columns (tests/test_analytic_jacobian.py).
+  subroutine physics_jacobian(model, t, y, yd, jac, analytic)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t                 !< time [s]
     real(dp), intent(in) :: y(:), yd(:)       !< unknowns and their derivatives
     real(dp), intent(out) :: jac(:, :)        !< (n,n); multiplier columns left zero
+    logical, intent(in) :: analytic           !< tangent sweeps, else forward differences
+    if (analytic) then
+      call physics_jacobian_analytic(model, t, y, yd, jac)
+    else
+      call physics_jacobian_differences(model, t, y, yd, jac)
+    end if
+  end subroutine physics_jacobian
+
+  !> The physics columns by tangent sweeps: column k moves coordinate k (or its rate) alone.
+  subroutine physics_jacobian_analytic(model, t, y, yd, jac)
+    type(model_type), intent(inout) :: model
+    real(dp), intent(in) :: t
+    real(dp), intent(in) :: y(:), yd(:)
+    real(dp), intent(out) :: jac(:, :)
+    real(dp) :: r0(size(y)), dy(size(y)), dyd(size(y))
+    integer :: nq, j, k
+    nq = model%nq
+    jac = 0.0_dp
+    dy = 0.0_dp
+    dyd = 0.0_dp
+    call ggl_residual_dense(model, t, y, yd, r0)
+    do j = 1, model%chain%n_bodies
+      do k = model%chain%first_coord(j), model%chain%first_coord(j) + model%chain%n_joint_coords(j) - 1
+        dy(k) = 1.0_dp
+        call ggl_residual_tangent(model, t, y, yd, dy, dyd, j, jac(:, k))
+        dy(k) = 0.0_dp
+        dy(nq + k) = 1.0_dp
+        call ggl_residual_tangent(model, t, y, yd, dy, dyd, j, jac(:, nq + k))
+        dy(nq + k) = 0.0_dp
+      end do
+    end do
+  end subroutine physics_jacobian_analytic
+
+  !> First-order change dr of the GGL residual for the change (dy, dyd) of (y, y'), O(n), at the
+  !> state of the last ggl_residual_dense(model, t, y, yd) (its kinematics, loads and wrenches
+  !> are reused).  dy and dyd must vanish on the joints before body `first` (1: any direction).
+  !> With dyd = cj dy this is the iteration matrix times dy.
+  subroutine ggl_residual_tangent(model, t, y, yd, dy, dyd, first, dr)
+    type(model_type), intent(inout) :: model  !< model, state of (t, y, yd) current
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: y(:), yd(:)       !< unknowns and their derivatives
+    real(dp), intent(in) :: dy(:), dyd(:)     !< their change
+    integer, intent(in) :: first              !< first body with a change
+    real(dp), intent(out) :: dr(:)            !< change of the residual
+    integer :: nq, nc, n
+    nq = model%nq; nc = model%nc; n = 2*nq + 2*nc
+    dr(1:nq) = dyd(1:nq) - dy(nq + 1:2*nq)
+    call eom_residual_tangent(model, t, y(1:nq), y(nq + 1:2*nq), yd(nq + 1:2*nq), y(2*nq + 1:2*nq + nc), dy(1:nq), &
+                              dy(nq + 1:2*nq), dyd(nq + 1:2*nq), dy(2*nq + 1:2*nq + nc), first, dr(nq + 1:2*nq))
+    if (nc == 0) return
+    call model%tip%residual_tangent(model%chain, model%st, model%dst, dr(2*nq + 1:2*nq + nc))
+    call model%tip%velocity_tangent(model%chain, model%st, model%dst, model%fs, dr(2*nq + nc + 1:n))
+    call model%tip%add_jacobian_transpose_tangent(model%chain, model%st, model%dst, y(2*nq + nc + 1:n), &
+                                                  dy(2*nq + nc + 1:n), dr(1:nq))
+  end subroutine ggl_residual_tangent
+
+  !> The physics columns by forward differences of the residual at fixed y'.
+  subroutine physics_jacobian_differences(model, t, y, yd, jac)
+    type(model_type), intent(inout) :: model
+    real(dp), intent(in) :: t
+    real(dp), intent(in) :: y(:), yd(:)
+    real(dp), intent(out) :: jac(:, :)
     real(dp) :: r0(size(y)), r1(size(y)), yy(size(y)), inc
     integer :: nq, j
     nq = model%nq
@@ -113,7 +181,7 @@ contains
       yy(j) = y(j)
       jac(:, j) = (r1 - r0)/inc
     end do
-  end subroutine physics_jacobian
+  end subroutine physics_jacobian_differences
 
   !> Add the exact blocks to a physics Jacobian: the y' terms (cj I, cj M by the composite
   !> rigid bodies at q), the multiplier columns -G^T, G^T and g's rows G.
@@ -162,8 +230,9 @@ contains
     flag = IDAGetNumNonlinSolvConvFails(ud%mem, fails)
     if (.not. ud%physics_valid .or. fails /= ud%physics_fails .or. steps < ud%physics_step .or. &
         steps - ud%physics_step >= ud%jacobian_max_age) then
-      call physics_jacobian(ud%model, t, y, yd, ud%physics)
-      ud%jac_residuals = ud%jac_residuals + 2*ud%nq + 1
+      call physics_jacobian(ud%model, t, y, yd, ud%physics, ud%analytic)
+      ud%jac_residuals = ud%jac_residuals + 1
+      if (.not. ud%analytic) ud%jac_residuals = ud%jac_residuals + 2*ud%nq
       ud%physics_evals = ud%physics_evals + 1
       ud%physics_valid = .true.
       ud%physics_step = steps

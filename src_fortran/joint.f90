@@ -26,7 +26,7 @@ module rotorcable_joint
   implicit none
   private
   public :: JOINT_ZY, JOINT_XY, JOINT_XYZ, MAX_JOINT_DOF, joint_ndof, joint_rotation, joint_axes, &
-            joint_bias, joint_name, thesis_angles, angles_from_thesis
+            joint_bias, joint_bias_tangent, joint_name, thesis_angles, angles_from_thesis
 
   !> Thesis two-angle joint: R_rel = Rz(gamma) Ry(beta), coordinates (gamma, beta).
   integer, parameter :: JOINT_ZY = 1
@@ -147,6 +147,34 @@ contains
       bias = 0.0_dp
     end select
   end function joint_bias
+
+  !> First-order change of joint_bias for changes of the axes (daxes) and the rates (drates):
+  !> the product rule on the same expressions.
+  pure function joint_bias_tangent(kind, axes, daxes, rates, drates) result(dbias)
+    integer, intent(in) :: kind               !< parametrisation
+    real(dp), intent(in) :: axes(:, :)        !< (3, ndof) world axes
+    real(dp), intent(in) :: daxes(:, :)       !< (3, ndof) their change
+    real(dp), intent(in) :: rates(:)          !< joint coordinate rates [rad/s]
+    real(dp), intent(in) :: drates(:)         !< their change
+    real(dp) :: dbias(3)
+    real(dp) :: a1(3), a2(3), a3(3), d1(3), d2(3), d3(3), w12(3), dw12(3)
+    select case (kind)
+    case (JOINT_ZY, JOINT_XY)
+      a1 = axes(:, 1); a2 = axes(:, 2); d1 = daxes(:, 1); d2 = daxes(:, 2)
+      dbias = (drates(1)*rates(2) + rates(1)*drates(2))*cross(a1, a2) &
+              + rates(1)*rates(2)*(cross(d1, a2) + cross(a1, d2))
+    case (JOINT_XYZ)
+      a1 = axes(:, 1); a2 = axes(:, 2); a3 = axes(:, 3)
+      d1 = daxes(:, 1); d2 = daxes(:, 2); d3 = daxes(:, 3)
+      w12 = rates(1)*a1 + rates(2)*a2
+      dw12 = drates(1)*a1 + rates(1)*d1 + drates(2)*a2 + rates(2)*d2
+      dbias = (drates(1)*rates(2) + rates(1)*drates(2))*cross(a1, a2) &
+              + rates(1)*rates(2)*(cross(d1, a2) + cross(a1, d2)) &
+              + drates(3)*cross(w12, a3) + rates(3)*(cross(dw12, a3) + cross(w12, d3))
+    case default
+      dbias = 0.0_dp
+    end select
+  end function joint_bias_tangent
 
   !> The thesis's (gamma, beta) of a joint: direction of the child's axis in the parent
   !> frame, d = R_rel e_z = (cos g sin b, sin g sin b, cos b) (eq. 4.7/4.8).  For JOINT_ZY

@@ -10,6 +10,8 @@ module rotorcable_model
   use rotorcable_chain, only: chain_type
   use rotorcable_kinematics, only: chain_state, state_allocate, chain_positions, chain_motion, motion_seed
   use rotorcable_inverse_dynamics, only: inverse_dynamics, world_inertia_times
+  use rotorcable_kinematics_tangent, only: chain_tangent, tangent_allocate, positions_tangent, motion_tangent
+  use rotorcable_inverse_dynamics_tangent, only: inverse_dynamics_tangent
   use rotorcable_mass_matrix, only: mass_matrix_crba
   use rotorcable_linalg, only: solve_dense
   use rotorcable_rotations, only: cross
@@ -20,7 +22,8 @@ module rotorcable_model
   use rotorcable_loads_type, only: load_slot
   implicit none
   private
-  public :: model_type, model_init, model_prepare, model_free, eom_residual, generalized_forces, mass_matrix, &
+  public :: model_type, model_init, model_prepare, model_free, eom_residual, eom_residual_tangent, &
+            generalized_forces, mass_matrix, &
             constraint_residual, constraint_jacobian, constraint_bias, constraint_velocity, &
             solve_accelerations, positions_at, kinetic_energy, stored_energy, total_energy, &
             switch_times, joint_diagonal, all_conservative
@@ -52,6 +55,10 @@ module rotorcable_model
     real(dp), allocatable :: tau(:)           !< (nq) applied generalized forces
     real(dp), allocatable :: zero_q(:)        !< (nq) zeros
     real(dp), allocatable :: zero_c(:)        !< (max(nc,1)) zeros
+    type(chain_tangent) :: dst                !< first-order change of st (analytic Jacobian)
+    real(dp), allocatable :: dforce(:, :)     !< (3,n) change of the applied forces
+    real(dp), allocatable :: dmoment(:, :)    !< (3,n) change of the applied moments
+    real(dp), allocatable :: dtau(:)          !< (nq) change of the applied generalized forces
   end type model_type
 
 contains
@@ -65,8 +72,11 @@ contains
     if (allocated(model%tip)) model%nc = model%tip%rows()
     if (.not. allocated(model%loads)) allocate (model%loads(0))
     call state_allocate(model%chain, model%st)
-    if (allocated(model%force)) deallocate (model%force, model%moment, model%tau, model%zero_q, model%zero_c)
+    call tangent_allocate(model%chain, model%dst)
+    if (allocated(model%force)) deallocate (model%force, model%moment, model%tau, model%zero_q, model%zero_c, &
+                                            model%dforce, model%dmoment, model%dtau)
     allocate (model%force(3, model%chain%n_bodies), model%moment(3, model%chain%n_bodies), model%tau(model%nq))
+    allocate (model%dforce(3, model%chain%n_bodies), model%dmoment(3, model%chain%n_bodies), model%dtau(model%nq))
     allocate (model%zero_q(model%nq), model%zero_c(max(model%nc, 1)))
     model%zero_q = 0.0_dp
     model%zero_c = 0.0_dp
@@ -143,6 +153,48 @@ contains
     res = res - model%tau
     if (present(wrenches)) wrenches = [f_a, m_a, f_b, m_b]
   end subroutine eom_residual
+
+  !> First-order change of eom_residual's residual for the change (dq, dv, dvdot, dlambda) of its
+  !> arguments, O(n): the tangent of the kinematics, of every load, of clamp B's wrench and of
+  !> the Newton-Euler pass.  model%st must hold the state of eom_residual at the same
+  !> (t, q, v, vdot, lambda), and model%force that pass's applied forces; model%dst is left
+  !> holding the state's change (for the constraint rows).  dq, dv and dvdot must vanish on the
+  !> joints before body `first` (a column of the Jacobian starts there; 1 for any direction).
+  subroutine eom_residual_tangent(model, t, q, v, vdot, lambda, dq, dv, dvdot, dlambda, first, dres)
+    type(model_type), intent(inout) :: model  !< model, state current
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: q(:), v(:), vdot(:)  !< coordinates, rates, accelerations
+    real(dp), intent(in) :: lambda(:)         !< multipliers (size nc)
+    real(dp), intent(in) :: dq(:), dv(:), dvdot(:)  !< their change
+    real(dp), intent(in) :: dlambda(:)        !< change of the multipliers
+    integer, intent(in) :: first              !< first body whose joint has dq, dv /= 0
+    real(dp), intent(out) :: dres(:)          !< (nq) change of the residual
+    real(dp) :: f_b(3), m_b(3), df_b(3), dm_b(3)
+    integer :: i
+    call positions_tangent(model%chain, model%st, dq, first, model%dst)
+    call motion_tangent(model%chain, model%seed, model%st, v, vdot, dv, dvdot, model%dst)
+    model%dforce = 0.0_dp
+    model%dmoment = 0.0_dp
+    model%dtau = 0.0_dp
+    do i = 1, size(model%loads)
+      call model%loads(i)%term%add_force_tangent(model%chain, model%st, model%dst, model%fs, t, q, v, dq, dv, &
+                                                 model%dforce, model%dmoment, model%dtau)
+    end do
+    f_b = 0.0_dp; df_b = 0.0_dp; dm_b = 0.0_dp
+    if (model%nc > 0) then
+      call model%tip%wrench(model%chain, model%st, lambda(1:model%nc), f_b, m_b)
+      call model%tip%wrench_tangent(model%chain, model%st, model%dst, lambda(1:model%nc), dlambda(1:model%nc), &
+                                    df_b, dm_b)
+    end if
+    if (model%fs%rotating .and. .not. model%fs%body_couples) then
+      call inverse_dynamics_tangent(model%chain, model%st, model%dst, model%force, model%dforce, model%dmoment, f_b, &
+                                    df_b, dm_b, dres, model%fs%omega, model%fs%omega_dot)
+    else
+      call inverse_dynamics_tangent(model%chain, model%st, model%dst, model%force, model%dforce, model%dmoment, f_b, &
+                                    df_b, dm_b, dres)
+    end if
+    dres = dres - model%dtau
+  end subroutine eom_residual_tangent
 
   !> Generalized applied and velocity forces k(q,qd,t) = -(residual at vdot = 0, lambda = 0).
   subroutine generalized_forces(model, t, q, v, k)

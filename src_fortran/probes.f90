@@ -11,8 +11,9 @@ module rotorcable_probes
                               total_energy, positions_at
   use rotorcable_model_registry, only: lookup_model
   use rotorcable_mass_matrix, only: mass_matrix_jourdain
-  use rotorcable_dae_integrator, only: integrator_settings, solver_stats, consistent_start, integrate
-  use rotorcable_ggl_residual, only: ggl_residual_dense, ggl_jacobian_dense
+  use rotorcable_dae_integrator, only: integrator_settings, settings_from_arrays, solver_stats, consistent_start, &
+                                       integrate
+  use rotorcable_ggl_residual, only: ggl_residual_dense, ggl_jacobian_dense, ggl_residual_tangent
   use rotorcable_ggl_linear_solver, only: ggl_block_solver, block_factorise, block_solve
   use rotorcable_chain_linear_solver, only: ggl_chain_solver, chain_solver_create, chain_factorise, chain_solve, &
                                             chain_iteration_matrix
@@ -22,7 +23,8 @@ module rotorcable_probes
   implicit none
   private
   public :: rc_probe_evaluate, rc_probe_consistent_start, rc_probe_ggl_residual, rc_probe_iteration_matrix, &
-            rc_probe_time_kernels, rc_probe_integrate, rc_probe_rank_margin, rc_probe_chain_solver
+            rc_probe_time_kernels, rc_probe_integrate, rc_probe_rank_margin, rc_probe_chain_solver, &
+            rc_probe_residual_tangent
 
 contains
 
@@ -142,6 +144,32 @@ contains
     call to_status(error, stat, msg)
   end subroutine rc_probe_ggl_residual
 
+  !> The first-order change of the GGL residual at (t, y, y') for the change (dy, dyd), by the
+  !> tangent sweep of the analytic Jacobian (ggl_residual_tangent, from body 1).
+  subroutine rc_probe_residual_tangent(handle, t, n, y, yd, dy, dyd, dr, stat, msg)
+    integer(c_int), intent(in) :: handle          !< model handle
+    real(c_double), intent(in) :: t               !< time [s]
+    integer(c_int), intent(in) :: n               !< GGL unknowns 2 nq + 2 nc
+    real(c_double), intent(in) :: y(n), yd(n)     !< state
+    real(c_double), intent(in) :: dy(n), dyd(n)   !< direction
+    real(c_double), intent(out) :: dr(n)          !< change of the residual
+    integer(c_int), intent(out) :: stat           !< 0 = ok
+    character(len=1024), intent(out) :: msg       !< why not
+    type(model_type), pointer :: model
+    type(error_type) :: error
+    real(dp) :: r(n)
+    dr = 0.0_dp
+    model => model_of(handle, error)
+    if (error%code == 0) then
+      if (n /= 2*model%nq + 2*model%nc) call fatal_error(error, 'n must be 2 nq + 2 nc')
+    end if
+    if (error%code == 0) then
+      call ggl_residual_dense(model, t, y, yd, r)
+      call ggl_residual_tangent(model, t, y, yd, dy, dyd, 1, dr)
+    end if
+    call to_status(error, stat, msg)
+  end subroutine rc_probe_residual_tangent
+
   !> The approximate iteration matrix of the chain solver (rotorcable_chain_linear_solver) at
   !> (t, q, cj), dense, with the chain solver's solutions of J x = b and the block solver's
   !> solutions of the same dense matrix, and the chain solver's wall time per factorisation and
@@ -210,9 +238,10 @@ contains
   !> The GGL iteration matrix J = dF/dy + cj dF/dy' at (y, y') and the block (Schur-complement)
   !> solution of J x = b, with wall time per factorisation and per solve, block against
   !> LAPACK's dense LU (dgetrf/dgetrs) of the whole matrix.
-  subroutine rc_probe_iteration_matrix(handle, t, cj, n, y, yd, n_rhs, b, n_rep, jac, x_block, ns_block_factor, &
-                                       ns_block_solve, ns_dense_factor, ns_dense_solve, stat, msg)
+  subroutine rc_probe_iteration_matrix(handle, t, cj, n, y, yd, analytic, n_rhs, b, n_rep, jac, x_block, &
+                                       ns_block_factor, ns_block_solve, ns_dense_factor, ns_dense_solve, stat, msg)
     integer(c_int), intent(in) :: handle          !< model handle
+    integer(c_int), intent(in) :: analytic        !< physics columns: 1 tangent sweeps, 0 differences
     real(c_double), intent(in) :: t, cj           !< time [s], IDA's cj = alpha/h [1/s]
     integer(c_int), intent(in) :: n, n_rhs        !< GGL unknowns 2 nq + 2 nc, right-hand sides
     real(c_double), intent(in) :: y(n), yd(n)     !< state of the matrix
@@ -243,7 +272,7 @@ contains
     end if
     nq = model%nq; nc = model%nc
     allocate (lu(n, n), x(n), pivots(n))
-    call ggl_jacobian_dense(model, t, cj, y, yd, jac)
+    call ggl_jacobian_dense(model, t, cj, y, yd, jac, analytic /= 0)
     block%nq = nq; block%nc = nc; block%cj = cj
     allocate (block%k(nq, nq), block%k_pivots(nq), block%kq(nq, nq), block%b1_rows(nq + 2*nc, nq), block%g_t(nq, nc), &
               block%cq(nc, nq), block%c_rows(2*nc, nq), block%kinv_b(nq, 2*nc), &
@@ -288,8 +317,8 @@ contains
 
   !> Cost of the integrator's kernels at (y, y'), timed in a loop here (no Python call
   !> overhead): one GGL residual, one structured Jacobian and one mass matrix.
-  subroutine rc_probe_time_kernels(handle, t, n, y, yd, n_rep, residual, ns_residual, ns_jacobian, ns_mass, &
-                                   stat, msg)
+  subroutine rc_probe_time_kernels(handle, t, n, y, yd, n_rep, residual, ns_residual, ns_jacobian, ns_jacobian_fd, &
+                                   ns_mass, stat, msg)
     integer(c_int), intent(in) :: handle          !< model handle
     real(c_double), intent(in) :: t               !< time [s]
     integer(c_int), intent(in) :: n               !< GGL unknowns 2 nq + 2 nc
@@ -297,7 +326,8 @@ contains
     integer(c_int), intent(in) :: n_rep           !< repetitions of the residual (Jacobian: n_rep/100 + 1)
     real(c_double), intent(out) :: residual(n)    !< residual at the state
     real(c_double), intent(out) :: ns_residual    !< wall time per residual [ns]
-    real(c_double), intent(out) :: ns_jacobian    !< wall time per Jacobian [ns]
+    real(c_double), intent(out) :: ns_jacobian    !< wall time per Jacobian, analytic physics columns [ns]
+    real(c_double), intent(out) :: ns_jacobian_fd !< the same with finite-difference columns [ns]
     real(c_double), intent(out) :: ns_mass        !< wall time per mass matrix [ns]
     integer(c_int), intent(out) :: stat           !< 0 = ok
     character(len=1024), intent(out) :: msg       !< why not
@@ -307,7 +337,7 @@ contains
     integer(kind=8) :: k0, k1, rate
     integer :: i, n_jac
     real(dp) :: sink
-    residual = 0.0_dp; ns_residual = 0.0_dp; ns_jacobian = 0.0_dp; ns_mass = 0.0_dp
+    residual = 0.0_dp; ns_residual = 0.0_dp; ns_jacobian = 0.0_dp; ns_jacobian_fd = 0.0_dp; ns_mass = 0.0_dp
     model => model_of(handle, error)
     if (error%code /= 0) then
       call to_status(error, stat, msg)
@@ -326,11 +356,18 @@ contains
     n_jac = n_rep/100 + 1
     call system_clock(k0)
     do i = 1, n_jac
-      call ggl_jacobian_dense(model, t, 1.0e3_dp, y, yd, jac)
+      call ggl_jacobian_dense(model, t, 1.0e3_dp, y, yd, jac, .true.)
       sink = sink + jac(1, 1)
     end do
     call system_clock(k1)
     ns_jacobian = 1.0e9_dp*real(k1 - k0, dp)/real(rate, dp)/n_jac
+    call system_clock(k0)
+    do i = 1, n_jac
+      call ggl_jacobian_dense(model, t, 1.0e3_dp, y, yd, jac, .false.)
+      sink = sink + jac(1, 1)
+    end do
+    call system_clock(k1)
+    ns_jacobian_fd = 1.0e9_dp*real(k1 - k0, dp)/real(rate, dp)/n_jac
     call system_clock(k0)
     do i = 1, n_rep
       call mass_matrix(model, t, y(1:model%nq), m)
@@ -352,7 +389,7 @@ contains
     integer(c_int), intent(in) :: handle          !< model handle
     integer(c_int), intent(in) :: method          !< 1 IDA-GGL, 2 GSL rk8pd, 3 GSL msbdf
     real(c_double), intent(in) :: settings_real(4)  !< rtol, atol, atol_multiplier, h_max
-    integer(c_int), intent(in) :: settings_int(4)   !< max_steps, linear solver, jacobian_max_age, kernels
+    integer(c_int), intent(in) :: settings_int(5)   !< as rc_dynamic_start
     real(c_double), intent(in) :: baumgarte_omega !< Baumgarte constant of the ODE route [1/s]
     real(c_double), intent(in) :: t0, t_end       !< start and end [s]
     integer(c_int), intent(in) :: nq              !< coordinates
@@ -383,10 +420,7 @@ contains
       t(k) = t0 + (t_end - t0)*real(k - 1, dp)/real(m - 1, dp)
     end do
     t(m) = t_end
-    settings%rtol = settings_real(1); settings%atol = settings_real(2)
-    settings%atol_multiplier = settings_real(3); settings%h_max = settings_real(4)
-    settings%max_steps = settings_int(1); settings%linear_solver = settings_int(2)
-    settings%jacobian_max_age = settings_int(3); settings%compiled_vector_kernels = settings_int(4) /= 0
+    settings = settings_from_arrays(settings_real, settings_int)
     call system_clock(k0, rate)
     call cpu_time(c0)
     select case (method)

@@ -13,6 +13,8 @@ module rotorcable_loads_drag
   use rotorcable_errors, only: error_type, fatal_error
   use rotorcable_chain, only: chain_type
   use rotorcable_kinematics, only: chain_state
+  use rotorcable_kinematics_tangent, only: chain_tangent
+  use rotorcable_rotations, only: cross
   use rotorcable_frame, only: frame_state
   use rotorcable_loads_type, only: load_term, load_slot
   implicit none
@@ -26,6 +28,7 @@ module rotorcable_loads_drag
     real(dp), allocatable :: cd_area(:)       !< 1/2 rho C_d d_j L_j per body [kg/m]
   contains
     procedure :: add_forces
+    procedure :: add_force_tangent
   end type drag_load
 
 contains
@@ -69,5 +72,33 @@ contains
       force(:, j) = force(:, j) + self%cd_area(j)*norm2(u)*u
     end do
   end subroutine add_forces
+
+  !> d(|u_n| u_n) = |u_n| du_n + (u_n . du_n / |u_n|) u_n with du = -dv_C (the stream is fixed at
+  !> t) and de = dtheta x e: du_n = du - (du.e + u.de) e - (u.e) de.  |u_n| u_n is continuously
+  !> differentiable at u_n = 0, where its derivative vanishes.
+  pure subroutine add_force_tangent(self, chain, st, dst, fs, t, q, v, dq, dv, dforce, dmoment, dtau)
+    class(drag_load), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    type(chain_tangent), intent(in) :: dst
+    type(frame_state), intent(in) :: fs
+    real(dp), intent(in) :: t, q(:), v(:), dq(:), dv(:)
+    real(dp), intent(inout) :: dforce(:, :), dmoment(:, :), dtau(:)
+    real(dp) :: stream(3), u(3), e(3), de(3), du(3), un(3), dun(3), th(3), size_un
+    integer :: j
+    stream = matmul(self%stream, fs%rotation)
+    do j = dst%first, chain%n_bodies
+      e = st%rot(:, 3, j)
+      th = dst%dtheta(:, j)
+      de = cross(th, e)
+      u = stream - st%vel_cm(:, j)
+      du = -dst%dvel_cm(:, j)
+      un = u - dot_product(u, e)*e
+      size_un = norm2(un)
+      if (.not. size_un > 0.0_dp) cycle
+      dun = du - (dot_product(du, e) + dot_product(u, de))*e - dot_product(u, e)*de
+      dforce(:, j) = dforce(:, j) + self%cd_area(j)*(size_un*dun + dot_product(un, dun)/size_un*un)
+    end do
+  end subroutine add_force_tangent
 
 end module rotorcable_loads_drag

@@ -6,6 +6,7 @@ module rotorcable_loads_gravity
   use rotorcable_errors, only: error_type, fatal_error
   use rotorcable_chain, only: chain_type
   use rotorcable_kinematics, only: chain_state
+  use rotorcable_kinematics_tangent, only: chain_tangent
   use rotorcable_frame, only: frame_state
   use rotorcable_loads_type, only: load_term, load_slot
   implicit none
@@ -17,6 +18,7 @@ module rotorcable_loads_gravity
     real(dp) :: g(3) = 0.0_dp                 !< gravitational acceleration [m/s^2]
   contains
     procedure :: add_forces
+    procedure :: add_force_tangent
     procedure :: potential
     procedure :: has_potential
   end type gravity_load
@@ -52,6 +54,18 @@ contains
       force(:, j) = force(:, j) + chain%mass(j)*self%g
     end do
   end subroutine add_forces
+
+  pure subroutine add_force_tangent(self, chain, st, dst, fs, t, q, v, dq, dv, dforce, dmoment, dtau)
+    class(gravity_load), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    type(chain_tangent), intent(in) :: dst
+    type(frame_state), intent(in) :: fs
+    real(dp), intent(in) :: t, q(:), v(:), dq(:), dv(:)
+    real(dp), intent(inout) :: dforce(:, :), dmoment(:, :), dtau(:)
+    ! m g at the CM does not change; its moment about the joint point moves with the CM, which
+    ! the Newton-Euler tangent takes care of.
+  end subroutine add_force_tangent
 
   pure real(dp) function potential(self, chain, st, q) result(e)
     class(gravity_load), intent(in) :: self

@@ -7,6 +7,7 @@ module rotorcable_loads_joint_springs
   use rotorcable_errors, only: error_type, fatal_error
   use rotorcable_chain, only: chain_type
   use rotorcable_kinematics, only: chain_state
+  use rotorcable_kinematics_tangent, only: chain_tangent
   use rotorcable_frame, only: frame_state
   use rotorcable_loads_type, only: load_term, load_slot
   implicit none
@@ -20,6 +21,7 @@ module rotorcable_loads_joint_springs
     real(dp), allocatable :: rest(:)          !< q_rest [rad]
   contains
     procedure :: add_forces
+    procedure :: add_force_tangent
     procedure :: potential
     procedure :: has_potential
     procedure :: joint_diagonal
@@ -57,6 +59,17 @@ contains
     real(dp), intent(inout) :: force(:, :), moment(:, :), tau(:)
     tau = tau - self%stiffness*(q - self%rest) - self%damping*v
   end subroutine add_forces
+
+  pure subroutine add_force_tangent(self, chain, st, dst, fs, t, q, v, dq, dv, dforce, dmoment, dtau)
+    class(joint_springs_load), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    type(chain_tangent), intent(in) :: dst
+    type(frame_state), intent(in) :: fs
+    real(dp), intent(in) :: t, q(:), v(:), dq(:), dv(:)
+    real(dp), intent(inout) :: dforce(:, :), dmoment(:, :), dtau(:)
+    dtau = dtau - self%stiffness*dq - self%damping*dv
+  end subroutine add_force_tangent
 
   pure real(dp) function potential(self, chain, st, q) result(e)
     class(joint_springs_load), intent(in) :: self

@@ -6,6 +6,7 @@ module rotorcable_loads_pulse
   use rotorcable_errors, only: error_type, fatal_error
   use rotorcable_chain, only: chain_type
   use rotorcable_kinematics, only: chain_state
+  use rotorcable_kinematics_tangent, only: chain_tangent
   use rotorcable_frame, only: frame_state
   use rotorcable_loads_type, only: load_term, load_slot
   implicit none
@@ -20,6 +21,7 @@ module rotorcable_loads_pulse
     real(dp) :: t_end = 0.0_dp                !< end [s]
   contains
     procedure :: add_forces
+    procedure :: add_force_tangent
     procedure :: switch_times
   end type pulse_load
 
@@ -62,6 +64,17 @@ contains
     real(dp), intent(inout) :: force(:, :), moment(:, :), tau(:)
     if (t >= self%t_start .and. t < self%t_end) force(:, self%body) = force(:, self%body) + self%force
   end subroutine add_forces
+
+  pure subroutine add_force_tangent(self, chain, st, dst, fs, t, q, v, dq, dv, dforce, dmoment, dtau)
+    class(pulse_load), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    type(chain_tangent), intent(in) :: dst
+    type(frame_state), intent(in) :: fs
+    real(dp), intent(in) :: t, q(:), v(:), dq(:), dv(:)
+    real(dp), intent(inout) :: dforce(:, :), dmoment(:, :), dtau(:)
+    ! A constant force at the CM: no change (its lever arm is the Newton-Euler tangent's).
+  end subroutine add_force_tangent
 
   pure subroutine switch_times(self, times)
     class(pulse_load), intent(in) :: self

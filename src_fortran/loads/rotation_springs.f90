@@ -25,8 +25,9 @@ module rotorcable_loads_rotation_springs
   use rotorcable_chain, only: chain_type
   use rotorcable_joint, only: JOINT_XYZ, MAX_JOINT_DOF, joint_rotation
   use rotorcable_kinematics, only: chain_state
+  use rotorcable_kinematics_tangent, only: chain_tangent
   use rotorcable_frame, only: frame_state
-  use rotorcable_rotations, only: skew, vee, identity3
+  use rotorcable_rotations, only: skew, vee, identity3, cross
   use rotorcable_loads_type, only: load_term, load_slot
   implicit none
   private
@@ -39,6 +40,7 @@ module rotorcable_loads_rotation_springs
     logical, allocatable :: free(:)           !< (n) joint j has coordinates
   contains
     procedure :: add_forces
+    procedure :: add_force_tangent
     procedure :: potential
     procedure :: has_potential
     procedure :: joint_diagonal
@@ -132,6 +134,68 @@ contains
       tau(i0:i0 + 2) = tau(i0:i0 + 2) - matmul(transpose(a), torque)
     end do
   end subroutine add_forces
+
+  !> The coefficient c(a) of J_r^-1 = I + [phi]/2 + c [phi]^2 and its derivative dc/da, a = |phi|:
+  !> c = 1/a^2 - cot(a/2)/(2 a), dc/da = -2/a^3 + (a/sin^2(a/2) + 2 cot(a/2))/(4 a^2); below
+  !> a = 1e-3 the series 1/12 + a^2/720 and a/360 (cancellation).
+  pure subroutine jacobian_coefficient(a, c, dc_da)
+    real(dp), intent(in) :: a
+    real(dp), intent(out) :: c, dc_da
+    real(dp) :: cot_half
+    if (a < 1.0e-3_dp) then
+      c = 1.0_dp/12.0_dp + a**2/720.0_dp
+      dc_da = a/360.0_dp
+    else
+      cot_half = cos(0.5_dp*a)/sin(0.5_dp*a)
+      c = 1.0_dp/a**2 - cot_half/(2.0_dp*a)
+      dc_da = -2.0_dp/a**3 + (a/sin(0.5_dp*a)**2 + 2.0_dp*cot_half)/(4.0_dp*a**2)
+    end if
+  end subroutine jacobian_coefficient
+
+  !> Tangent of tau_j = -A^T (g(phi) + D A qdot_j), g = J_r^-T K phi = K phi - phi x K phi / 2
+  !> + c phi x (phi x K phi), for the joint's own (dq, dv): with the relative rotation's change
+  !> A dq in the child's axes, dphi = J_r^-1(phi) A dq; A = R_c^T (axes) changes by
+  !> R_c^T (da_l - dtheta_c x a_l), which depends on the joint's own dq only.
+  pure subroutine add_force_tangent(self, chain, st, dst, fs, t, q, v, dq, dv, dforce, dmoment, dtau)
+    class(rotation_springs_load), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    type(chain_tangent), intent(in) :: dst
+    type(frame_state), intent(in) :: fs
+    real(dp), intent(in) :: t, q(:), v(:), dq(:), dv(:)
+    real(dp), intent(inout) :: dforce(:, :), dmoment(:, :), dtau(:)
+    real(dp) :: phi(3), dphi(3), a(3, 3), da(3, 3), rc(3, 3), kphi(3), dkphi(3), pk(3), w(3), dw(3)
+    real(dp) :: g(3), dg(3), torque(3), dtorque(3), th(3), ax(3), c, dc_da, dc, size_phi
+    integer :: j, i0, l
+    do j = dst%first, chain%n_bodies
+      if (chain%locked(j)) cycle
+      i0 = chain%first_coord(j)
+      rc = st%rot(:, :, j)
+      th = dst%dtheta(:, j)
+      a = matmul(transpose(rc), st%axes(:, 1:3, j))
+      do l = 1, 3
+        ax = st%axes(:, l, j)
+        da(:, l) = matmul(dst%daxes(:, l, j) - cross(th, ax), rc)
+      end do
+      phi = joint_rotation_vector(chain, j, q)
+      dphi = matmul(right_jacobian_inverse(phi), matmul(a, dq(i0:i0 + 2)))
+      size_phi = norm2(phi)
+      call jacobian_coefficient(size_phi, c, dc_da)
+      dc = 0.0_dp
+      if (size_phi > 0.0_dp) dc = dc_da*dot_product(phi, dphi)/size_phi
+      kphi = self%stiffness(:, j)*phi
+      dkphi = self%stiffness(:, j)*dphi
+      pk = cross(phi, kphi)
+      g = kphi - 0.5_dp*pk + c*cross(phi, pk)
+      dg = dkphi - 0.5_dp*(cross(dphi, kphi) + cross(phi, dkphi)) + dc*cross(phi, pk) &
+           + c*(cross(dphi, pk) + cross(phi, cross(dphi, kphi) + cross(phi, dkphi)))
+      w = matmul(a, v(i0:i0 + 2))
+      dw = matmul(da, v(i0:i0 + 2)) + matmul(a, dv(i0:i0 + 2))
+      torque = g + self%damping(:, j)*w
+      dtorque = dg + self%damping(:, j)*dw
+      dtau(i0:i0 + 2) = dtau(i0:i0 + 2) - matmul(transpose(da), torque) - matmul(transpose(a), dtorque)
+    end do
+  end subroutine add_force_tangent
 
   pure real(dp) function potential(self, chain, st, q) result(e)
     class(rotation_springs_load), intent(in) :: self

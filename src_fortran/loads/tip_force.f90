@@ -6,6 +6,7 @@ module rotorcable_loads_tip_force
   use rotorcable_errors, only: error_type, fatal_error
   use rotorcable_chain, only: chain_type
   use rotorcable_kinematics, only: chain_state
+  use rotorcable_kinematics_tangent, only: chain_tangent
   use rotorcable_frame, only: frame_state
   use rotorcable_rotations, only: cross
   use rotorcable_loads_type, only: load_term, load_slot
@@ -18,6 +19,7 @@ module rotorcable_loads_tip_force
     real(dp) :: force(3) = 0.0_dp             !< force [N]
   contains
     procedure :: add_forces
+    procedure :: add_force_tangent
     procedure :: potential
     procedure :: has_potential
   end type tip_force_load
@@ -55,6 +57,22 @@ contains
     force(:, n) = force(:, n) + self%force
     moment(:, n) = moment(:, n) + cross(arm, self%force)
   end subroutine add_forces
+
+  pure subroutine add_force_tangent(self, chain, st, dst, fs, t, q, v, dq, dv, dforce, dmoment, dtau)
+    class(tip_force_load), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    type(chain_tangent), intent(in) :: dst
+    type(frame_state), intent(in) :: fs
+    real(dp), intent(in) :: t, q(:), v(:), dq(:), dv(:)
+    real(dp), intent(inout) :: dforce(:, :), dmoment(:, :), dtau(:)
+    real(dp) :: darm(3)
+    integer :: n
+    ! d((P_{n+1} - C_n) x F): the arm turns with the last body.
+    n = chain%n_bodies
+    darm = dst%djoint_point(:, n + 1) - dst%dcm(:, n)
+    dmoment(:, n) = dmoment(:, n) + cross(darm, self%force)
+  end subroutine add_force_tangent
 
   pure real(dp) function potential(self, chain, st, q) result(e)
     class(tip_force_load), intent(in) :: self

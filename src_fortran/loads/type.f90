@@ -11,6 +11,7 @@ module rotorcable_loads_type
   use rotorcable_kinds, only: dp
   use rotorcable_chain, only: chain_type
   use rotorcable_kinematics, only: chain_state
+  use rotorcable_kinematics_tangent, only: chain_tangent
   use rotorcable_frame, only: frame_state
   implicit none
   private
@@ -22,6 +23,10 @@ module rotorcable_loads_type
   contains
     !> Add the load's forces at the state (st: frames and absolute velocities) and time t.
     procedure(add_forces_interface), deferred :: add_forces
+    !> Add the first-order change of those forces for a change of the state: dst (frames, points,
+    !> velocities of rotorcable_kinematics_tangent) and dq, dv; the analytic Jacobian.  Every
+    !> load states its own derivative: a new load is not complete without it.
+    procedure(add_force_tangent_interface), deferred :: add_force_tangent
     !> Potential energy at the frames in st (0 if the load has none, see has_potential).
     procedure :: potential => no_potential
     !> Whether the load is conservative with the potential above.
@@ -51,6 +56,22 @@ module rotorcable_loads_type
       real(dp), intent(inout) :: moment(:, :) !< (3,n) moment on each body [Nm]
       real(dp), intent(inout) :: tau(:)       !< (nq) generalized forces [Nm]
     end subroutine add_forces_interface
+
+    !> Add d(force), d(moment) (3,n) and d(tau) (nq) for the change (dst, dq, dv) at (st, t).
+    pure subroutine add_force_tangent_interface(self, chain, st, dst, fs, t, q, v, dq, dv, dforce, dmoment, dtau)
+      import :: load_term, chain_type, chain_state, chain_tangent, frame_state, dp
+      class(load_term), intent(in) :: self    !< the load
+      type(chain_type), intent(in) :: chain   !< chain description
+      type(chain_state), intent(in) :: st     !< frames, absolute velocities at the state
+      type(chain_tangent), intent(in) :: dst  !< their first-order change
+      type(frame_state), intent(in) :: fs     !< the model frame's motion at t
+      real(dp), intent(in) :: t               !< time [s]
+      real(dp), intent(in) :: q(:), v(:)      !< coordinates [rad] and rates [rad/s]
+      real(dp), intent(in) :: dq(:), dv(:)    !< their change
+      real(dp), intent(inout) :: dforce(:, :) !< (3,n)
+      real(dp), intent(inout) :: dmoment(:, :)  !< (3,n)
+      real(dp), intent(inout) :: dtau(:)      !< (nq)
+    end subroutine add_force_tangent_interface
   end interface
 
 contains

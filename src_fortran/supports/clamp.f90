@@ -19,6 +19,7 @@ module rotorcable_supports_clamp
   use rotorcable_errors, only: error_type, fatal_error
   use rotorcable_chain, only: chain_type
   use rotorcable_kinematics, only: chain_state
+  use rotorcable_kinematics_tangent, only: chain_tangent
   use rotorcable_frame, only: frame_state, relative_velocity, relative_acceleration
   use rotorcable_rotations, only: cross, skew, vee, identity3, rotation_log, rotation_exp
   use rotorcable_motion_rotor, only: rotor_state
@@ -52,6 +53,10 @@ module rotorcable_supports_clamp
     procedure :: velocity => velocity_rows
     procedure :: bias
     procedure :: wrench
+    procedure :: residual_tangent
+    procedure :: velocity_tangent
+    procedure :: add_jacobian_transpose_tangent
+    procedure :: wrench_tangent
     procedure :: closure
     procedure :: closure_rows
     procedure :: blend_target
@@ -217,6 +222,92 @@ contains
     force = lambda(1:3)
     moment = matmul(lambda(4:6), rate_map(orientation_error(self, st)))   ! T^T lambda_rot
   end subroutine wrench
+
+  !> dE = [dtheta_n] E: the last body's frame turns by dtheta_n, the clamp's does not (it moves
+  !> with time only); T is linear in E, so dT = rate_map(dE).
+  pure function orientation_error_tangent(self, st, dst) result(de)
+    class(clamp_support), intent(in) :: self
+    type(chain_state), intent(in) :: st
+    type(chain_tangent), intent(in) :: dst
+    real(dp) :: de(3, 3)
+    de = matmul(skew(dst%dtheta(:, size(st%rot, 3))), orientation_error(self, st))
+  end function orientation_error_tangent
+
+  pure subroutine residual_tangent(self, chain, st, dst, dg)
+    class(clamp_support), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    type(chain_tangent), intent(in) :: dst
+    real(dp), intent(out) :: dg(:)
+    real(dp) :: de(3, 3)
+    dg(1:3) = dst%djoint_point(:, chain%n_bodies + 1)
+    de = orientation_error_tangent(self, st, dst)
+    dg(4:6) = 0.5_dp*vee(de - transpose(de))
+  end subroutine residual_tangent
+
+  !> d(G v + g_t): the tip's relative velocity (v - Omega x (x - c)) and T w_n - T^T w_B, w_n
+  !> relative to the frame, by the product rule (w_B is prescribed: no change).
+  pure subroutine velocity_tangent(self, chain, st, dst, fs, dout)
+    class(clamp_support), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    type(chain_tangent), intent(in) :: dst
+    type(frame_state), intent(in) :: fs
+    real(dp), intent(out) :: dout(:)
+    real(dp) :: t(3, 3), dt(3, 3), w_n(3)
+    integer :: n
+    n = chain%n_bodies
+    dout(1:3) = dst%dvel_joint(:, n + 1)
+    if (fs%rotating) dout(1:3) = dout(1:3) - cross(fs%omega, dst%djoint_point(:, n + 1))
+    t = rate_map(orientation_error(self, st))
+    dt = rate_map(orientation_error_tangent(self, st, dst))
+    w_n = st%omega(:, n) - fs%omega
+    dout(4:6) = matmul(dt, w_n) + matmul(t, dst%domega(:, n)) - matmul(self%omega, dt)
+  end subroutine velocity_tangent
+
+  !> d(G^T mu)_k = da_k . w_j + a_k . dw_j,  w_j = (tip - P_j) x mu_t + T^T mu_r.
+  pure subroutine add_jacobian_transpose_tangent(self, chain, st, dst, mu, dmu, dr)
+    class(clamp_support), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    type(chain_tangent), intent(in) :: dst
+    real(dp), intent(in) :: mu(:), dmu(:)
+    real(dp), intent(inout) :: dr(:)
+    real(dp) :: t_mu(3), dt_mu(3), tip(3), dtip(3), arm(3), darm(3), w(3), dw(3), mu_t(3), dmu_t(3)
+    integer :: j, kk, k, n
+    n = chain%n_bodies
+    t_mu = matmul(mu(4:6), rate_map(orientation_error(self, st)))
+    dt_mu = matmul(mu(4:6), rate_map(orientation_error_tangent(self, st, dst))) &
+            + matmul(dmu(4:6), rate_map(orientation_error(self, st)))
+    tip = st%joint_point(:, n + 1)
+    dtip = dst%djoint_point(:, n + 1)
+    mu_t = mu(1:3)
+    dmu_t = dmu(1:3)
+    do j = 1, n
+      if (chain%n_joint_coords(j) == 0) cycle
+      arm = tip - st%joint_point(:, j)
+      darm = dtip - dst%djoint_point(:, j)
+      w = cross(arm, mu_t) + t_mu
+      dw = cross(darm, mu_t) + cross(arm, dmu_t) + dt_mu
+      do kk = 1, chain%n_joint_coords(j)
+        k = chain%first_coord(j) + kk - 1
+        dr(k) = dr(k) + dot_product(dst%daxes(:, kk, j), w) + dot_product(st%axes(:, kk, j), dw)
+      end do
+    end do
+  end subroutine add_jacobian_transpose_tangent
+
+  !> dF_B = dlambda_pos, dM_B = dT^T lambda_rot + T^T dlambda_rot.
+  pure subroutine wrench_tangent(self, chain, st, dst, lambda, dlambda, dforce, dmoment)
+    class(clamp_support), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    type(chain_tangent), intent(in) :: dst
+    real(dp), intent(in) :: lambda(:), dlambda(:)
+    real(dp), intent(out) :: dforce(3), dmoment(3)
+    dforce = dlambda(1:3)
+    dmoment = matmul(lambda(4:6), rate_map(orientation_error_tangent(self, st, dst))) &
+              + matmul(dlambda(4:6), rate_map(orientation_error(self, st)))
+  end subroutine wrench_tangent
 
   !> (tip - p_B, E - I), 3 + 9 rows, and its Jacobian (dE/dq_k = [a_k] E).  g_rot also vanishes
   !> at a half-turn error (E = 2uu^T - I, where T has rank 1), so a Gauss-Newton closure on g

@@ -11,6 +11,7 @@ module rotorcable_supports_type
   use rotorcable_kinds, only: dp
   use rotorcable_chain, only: chain_type
   use rotorcable_kinematics, only: chain_state
+  use rotorcable_kinematics_tangent, only: chain_tangent
   use rotorcable_frame, only: frame_state
   use rotorcable_motion_rotor, only: rotor_state
   implicit none
@@ -35,6 +36,13 @@ module rotorcable_supports_type
     procedure(rows_vector_i), deferred :: bias
     !> Force and moment of the support on the chain from the multipliers.
     procedure(wrench_i), deferred :: wrench
+    !> First-order changes of g, of G v + g_t, of G^T mu and of the wrench for a change dst of
+    !> the chain state (rotorcable_kinematics_tangent) and of the multipliers: the analytic
+    !> Jacobian's constraint parts.
+    procedure(residual_tangent_i), deferred :: residual_tangent
+    procedure(velocity_tangent_i), deferred :: velocity_tangent
+    procedure(add_jt_tangent_i), deferred :: add_jacobian_transpose_tangent
+    procedure(wrench_tangent_i), deferred :: wrench_tangent
     !> A closure residual without spurious roots and its Jacobian (for projecting a start shape).
     procedure(closure_i), deferred :: closure
     !> Size of the closure residual.
@@ -100,6 +108,45 @@ module rotorcable_supports_type
       real(dp), intent(in) :: lambda(:)
       real(dp), intent(out) :: force(3), moment(3)
     end subroutine wrench_i
+
+    pure subroutine residual_tangent_i(self, chain, st, dst, dg)
+      import :: support_type, chain_type, chain_state, chain_tangent, dp
+      class(support_type), intent(in) :: self
+      type(chain_type), intent(in) :: chain
+      type(chain_state), intent(in) :: st
+      type(chain_tangent), intent(in) :: dst
+      real(dp), intent(out) :: dg(:)
+    end subroutine residual_tangent_i
+
+    pure subroutine velocity_tangent_i(self, chain, st, dst, fs, dout)
+      import :: support_type, chain_type, chain_state, chain_tangent, frame_state, dp
+      class(support_type), intent(in) :: self
+      type(chain_type), intent(in) :: chain
+      type(chain_state), intent(in) :: st
+      type(chain_tangent), intent(in) :: dst
+      type(frame_state), intent(in) :: fs
+      real(dp), intent(out) :: dout(:)
+    end subroutine velocity_tangent_i
+
+    pure subroutine add_jt_tangent_i(self, chain, st, dst, mu, dmu, dr)
+      import :: support_type, chain_type, chain_state, chain_tangent, dp
+      class(support_type), intent(in) :: self
+      type(chain_type), intent(in) :: chain
+      type(chain_state), intent(in) :: st
+      type(chain_tangent), intent(in) :: dst
+      real(dp), intent(in) :: mu(:), dmu(:)
+      real(dp), intent(inout) :: dr(:)
+    end subroutine add_jt_tangent_i
+
+    pure subroutine wrench_tangent_i(self, chain, st, dst, lambda, dlambda, dforce, dmoment)
+      import :: support_type, chain_type, chain_state, chain_tangent, dp
+      class(support_type), intent(in) :: self
+      type(chain_type), intent(in) :: chain
+      type(chain_state), intent(in) :: st
+      type(chain_tangent), intent(in) :: dst
+      real(dp), intent(in) :: lambda(:), dlambda(:)
+      real(dp), intent(out) :: dforce(3), dmoment(3)
+    end subroutine wrench_tangent_i
 
     pure subroutine closure_i(self, chain, st, r, r_jac)
       import :: support_type, chain_type, chain_state, dp

@@ -1,0 +1,102 @@
+!> Tangent (forward-mode derivative) of the recursive Newton-Euler pass of
+!> rotorcable_inverse_dynamics: the first-order change of the joint torques for a change of the
+!> kinematic state (rotorcable_kinematics_tangent), of the applied forces and of the wrench of
+!> clamp B, O(n) per direction (Carpentier and Mansard, RSS 2018, section IV: the RNEA
+!> derivatives; here by the product rule on this code's world-frame pass).
+!>
+!> World-frame inertia R diag(theta) R^T turns with the body: d(I x) = dtheta x (I x)
+!> - I (dtheta x x) + I dx.  Bodies before dst%first do not move: there only the transported
+!> wrench changes, which costs a few flops per body.
+module rotorcable_inverse_dynamics_tangent
+  use rotorcable_kinds, only: dp
+  use rotorcable_chain, only: chain_type
+  use rotorcable_kinematics, only: chain_state
+  use rotorcable_kinematics_tangent, only: chain_tangent
+  use rotorcable_inverse_dynamics, only: world_inertia_times
+  use rotorcable_rotations, only: cross
+  implicit none
+  private
+  public :: inverse_dynamics_tangent
+
+contains
+
+  !> d(tau) of inverse_dynamics for the change dst of the state, dforce, dmoment of the applied
+  !> loads and dtip_force, dtip_moment of clamp B.  The wrenches of the state (st%joint_force,
+  !> st%joint_moment) must be those of the pass being differentiated, with the same loads.
+  pure subroutine inverse_dynamics_tangent(chain, st, dst, force, dforce, dmoment, tip_force, dtip_force, &
+                                           dtip_moment, dtau, frame_omega, frame_omega_dot)
+    type(chain_type), intent(in) :: chain     !< chain description
+    type(chain_state), intent(in) :: st       !< state and wrenches of the pass
+    type(chain_tangent), intent(in) :: dst    !< change of the state
+    real(dp), intent(in) :: force(:, :)       !< (3,n) applied forces at the CMs [N]
+    real(dp), intent(in) :: dforce(:, :)      !< (3,n) their change
+    real(dp), intent(in) :: dmoment(:, :)     !< (3,n) change of the applied moments
+    real(dp), intent(in) :: tip_force(3)      !< force of support B on the tip [N]
+    real(dp), intent(in) :: dtip_force(3)     !< its change
+    real(dp), intent(in) :: dtip_moment(3)    !< change of support B's moment
+    real(dp), intent(out) :: dtau(:)          !< (nq) change of the joint torques
+    real(dp), intent(in), optional :: frame_omega(3)      !< as in inverse_dynamics
+    real(dp), intent(in), optional :: frame_omega_dot(3)  !< as in inverse_dynamics
+    real(dp) :: f_child(3), df_child(3), dn_child(3), f_net(3), df_net(3), df(3), dn(3), dn_cm(3)
+    real(dp) :: w(3), a(3), dw(3), da(3), th(3), iw(3), diw(3), arm_cm(3), arm_link(3), darm_cm(3), darm_link(3)
+    real(dp) :: tw(3), ta(3)
+    integer :: j, k, i0, nd, n
+    logical :: relative
+
+    relative = present(frame_omega) .and. present(frame_omega_dot)
+    n = chain%n_bodies
+    df_child = -dtip_force
+    dn_child = -dtip_moment
+    do j = n, 1, -1
+      ! The wrench this body's child exerted on it in the pass: -(wrench of j on j+1).
+      if (j < n) then
+        f_child = st%joint_force(:, j + 1)
+      else
+        f_child = -tip_force
+      end if
+      arm_link = st%joint_point(:, j + 1) - st%joint_point(:, j)
+      arm_cm = st%cm(:, j) - st%joint_point(:, j)
+      if (j >= dst%first) then
+        f_net = chain%mass(j)*st%acc_cm(:, j) - force(:, j)
+        df_net = chain%mass(j)*dst%dacc_cm(:, j) - dforce(:, j)
+        w = st%omega(:, j)
+        a = st%alpha(:, j)
+        dw = dst%domega(:, j)
+        da = dst%dalpha(:, j)
+        if (relative) then
+          w = w - frame_omega
+          a = a - frame_omega_dot - cross(frame_omega, w)
+          da = da - cross(frame_omega, dw)
+        end if
+        th = dst%dtheta(:, j)
+        iw = world_inertia_times(chain, st, j, w)
+        tw = cross(th, w)
+        diw = cross(th, iw) - world_inertia_times(chain, st, j, tw) + world_inertia_times(chain, st, j, dw)
+        ta = cross(th, a)
+        dn_cm = cross(th, world_inertia_times(chain, st, j, a)) - world_inertia_times(chain, st, j, ta) &
+                + world_inertia_times(chain, st, j, da) + cross(dw, iw) + cross(w, diw) - dmoment(:, j)
+        darm_cm = dst%dcm(:, j) - dst%djoint_point(:, j)
+        darm_link = dst%djoint_point(:, j + 1) - dst%djoint_point(:, j)
+        df = df_net + df_child
+        dn = dn_cm + cross(darm_cm, f_net) + cross(arm_cm, df_net) + dn_child + cross(darm_link, f_child) &
+             + cross(arm_link, df_child)
+      else
+        ! Body j does not move: only the applied loads' changes (zero for the body-local loads)
+        ! and the wrench passed on from outboard.
+        df_net = -dforce(:, j)
+        df = df_net + df_child
+        dn = -dmoment(:, j) + cross(arm_cm, df_net) + dn_child + cross(arm_link, df_child)
+      end if
+      nd = chain%n_joint_coords(j)
+      if (nd > 0) then
+        i0 = chain%first_coord(j) - 1
+        do k = 1, nd
+          dtau(i0 + k) = dot_product(dst%daxes(:, k, j), st%joint_moment(:, j)) + dot_product(st%axes(:, k, j), dn)
+        end do
+      end if
+      df_child = df
+      dn_child = dn
+    end do
+  end subroutine inverse_dynamics_tangent
+
+end module rotorcable_inverse_dynamics_tangent
