@@ -260,6 +260,14 @@ class CoreModel:
         return {"residual": r, "residual_ns": ns_res, "jacobian_ns": ns_jac, "jacobian_fd_ns": ns_jac_fd,
                 "mass_matrix_ns": ns_mass}
 
+    def articulated_solve(self, q, armature, tau, t: float = 0.0) -> np.ndarray:
+        """(M(q) + diag(armature))^-1 tau by the articulated-body factorisation (the chain
+        solver's kernel)."""
+        x, stat, msg = _probes.rc_probe_articulated_solve(self.handle, float(t), _reals(q), _reals(armature),
+                                                          _reals(tau))
+        _raise(self.deck, stat, "", msg)
+        return x
+
     def residual_tangent(self, y, yd, dy, dyd, t: float = 0.0) -> np.ndarray:
         """First-order change of the GGL residual at (y, y') for the change (dy, dyd): the
         analytic Jacobian's tangent sweep (with dyd = cj dy, the iteration matrix times dy)."""

@@ -14,20 +14,26 @@
 !>   force   (n, f) at P_{j+1}  -> (n + r_j x f, f) at P_j      (X_j^T)
 !> The joint of body j turns about its axes a_k through P_j: S_j = [a_k; 0] (6 x nd).
 !>
-!> Stability.  The textbook update of the articulated inertia handed to the parent,
-!> I^A - U (D + A)^-1 U^T (Featherstone eq. 7.35 with armature), is exponentially unstable on a
-!> chain of multi-axis joints: its components along the joint's own motions S should be O(A)
-!> but come out as differences of O(D) numbers, and that round-off grows by a factor of 3 to 16
-!> per joint (measured on 40-body chains of two-axis joints, in double and in 60-digit
-!> arithmetic alike: the recursion amplifies any error there), until at n ~ 30 the solves are
-!> wrong by tens of per cent.  Here the update is written in the joint's own basis
-!> W = diag(W_r, 1), W_r = [a_1 .. a_nd, complement], where, with I~ = W^T I^A W and
-!> D = I~_11 (the joint block), the same matrix is
-!>   C_11 = D (D + A)^-1 A,   C_12 = A (D + A)^-1 I~_12,   C_22 = I~_22 - I~_21 (D + A)^-1 I~_12,
-!> (no cancellation in C_11, C_12: both vanish with A exactly as they should), and the
-!> inertia passed on is W^-T C W^-1.  The bias force is passed the same way: its joint part
-!> becomes tau - A (D + A)^-1 u.  With this the solves are accurate to cond(M) eps (tested on
-!> chains of 200 bodies, tests/test_chain_solver.py).
+!> Stability.  In its textbook form the recursion loses its digits along a chain of
+!> multi-axis joints: round-off in the articulated inertia is amplified from joint to joint
+!> (by 3 to 16 per joint on 40-body chains of two-axis joints, in double and in 60-digit
+!> arithmetic alike), and the solves of a 40-body chain were wrong by 35 %, of an 88-body chain
+!> with xyz joints by 1e4 %, wherever the armature A is small (large cj).  Three changes make
+!> it accurate to cond(M) eps (tests/test_chain_solver.py, up to n = 200, cond 2e8):
+!>  1. The inertia handed to the parent, I^A - U (D + A)^-1 U^T, is formed in the joint's own
+!>     basis W = diag(W_r, 1), W_r = [a_1 .. a_nd, complement]: with I~ = W^T I^A W and
+!>     D = I~_11, C_11 = D (D + A)^-1 A and C_12 = -C_11 g vanish with A exactly, where the
+!>     textbook difference leaves O(eps D) (pass_inertia).
+!>  2. Its block on the transmitted directions is the free joint's Z^-1 (the inverse of the
+!>     articulated compliance, Featherstone 2008, section 7.3) plus a positive correction,
+!>     C_22 = Z^-1 + g^T C_11 g, not I~_22 - I~_21 (D + A)^-1 I~_12, in which a floppy
+!>     chain's small effective mass is a difference of large inertias.
+!>  3. The move to the parent's joint point is grouped as the product X^T (I X); the expanded
+!>     a - b[r] - (b[r])^T - [r] c [r] is the same sum but breaks the exact cancellation
+!>     along the child's free directions.
+!> Leaving out 2 or 3 brings the error back (1e-4 to 4e-2 at n = 40 without armature, measured
+!> in numpy on the same chains).  The bias force is passed the same way as 1: its joint part
+!> becomes tau - A (D + A)^-1 u.
 module rotorcable_articulated_body
   use rotorcable_kinds, only: dp
   use rotorcable_chain, only: chain_type
@@ -63,7 +69,7 @@ contains
     real(dp), intent(in) :: armature(:)       !< (nq) diagonal added to M [kg m^2]
     type(articulated_factors), intent(inout) :: f  !< factors
     integer, intent(out) :: info              !< 0, or the joint with a singular D_j
-    real(dp) :: a(3, 3), b(3, 3), c(3, 3), ap(3, 3), bp(3, 3), cp(3, 3), br(3, 3), sr(3, 3), sc(3, 3)
+    real(dp) :: a(3, 3), b(3, 3), c(3, 3), ap(3, 3), bp(3, 3), cp(3, 3), br(3, 3), cr(3, 3), sr(3, 3), sc(3, 3)
     real(dp) :: cm(3), rot(3, 3), w_r(3, 3), it(6, 6), d(3, 3), m
     integer :: j, nd, i0, k, l, n
     n = chain%n_bodies
@@ -80,22 +86,28 @@ contains
       f%arm(:, j) = st%joint_point(:, j + 1) - st%joint_point(:, j)
       ! The child's articulated inertia moved from P_{j+1} to P_j, X^T I X with X the motion
       ! transform of the module header: a - b[r] - (b[r])^T - [r] c [r], b + [r] c, c.
+      ! Grouped as the product X^T (I X): first I X = [a - b[r], b; b^T - c[r], c], then X^T of it.
+      ! The expanded a - b[r] - (b[r])^T - [r] c [r] is the same sum, but it loses the exact
+      ! cancellation along the child's free joint directions, and that error grows along the
+      ! chain (measured with the rest unchanged: 4e-2 at n = 40 against 4e-11 grouped).
       sr = skew(f%arm(:, j))
-      br = matmul(bp, sr)
-      a = ap - br - transpose(br) - matmul(sr, matmul(cp, sr))
+      br = ap - matmul(bp, sr)                ! a - b[r]
+      cr = transpose(bp) - matmul(cp, sr)     ! b^T - c[r]
+      a = br + matmul(sr, cr)
       b = bp + matmul(sr, cp)
       c = cp
       ! Body j's own spatial inertia at P_j: [Ic + m [c][c]^T, m [c]; m [c]^T, m 1], c = C_j - P_j.
       m = chain%mass(j)
       sc = skew(st%cm(:, j) - st%joint_point(:, j))
       rot = st%rot(:, :, j)
+      ap = m*matmul(sc, transpose(sc))
       do k = 1, 3                             ! R diag(theta) R^T, one outer product per axis
         cm = rot(:, k)*chain%inertia(k, j)
         do l = 1, 3
-          a(:, l) = a(:, l) + cm*rot(l, k)
+          ap(:, l) = ap(:, l) + cm*rot(l, k)
         end do
       end do
-      a = a + m*matmul(sc, transpose(sc))
+      a = a + ap
       b = b + m*sc
       do k = 1, 3
         c(k, k) = c(k, k) + m
@@ -128,58 +140,113 @@ contains
         info = j
         return
       end if
-      call pass_inertia(nd, f%armature(:, j), f%d_inv(:, :, j), it, f%basis_inv(:, :, j), ap, bp, cp)
+      call pass_inertia(nd, f%armature(:, j), f%d_inv(:, :, j), it, f%basis_inv(:, :, j), ap, bp, cp, info)
+      if (info /= 0) then
+        info = j
+        return
+      end if
       f%basis_inv(nd + 1:3, :, j) = 0.0_dp    ! only the axes' duals are used in the solves
     end do
   end subroutine articulated_factorise
 
   !> The articulated inertia handed to the parent, I^A - U (D + A)^-1 U^T, in the stable form of
-  !> the module header, from I~ = W^T I^A W; returned as its blocks at P_j.
-  pure subroutine pass_inertia(nd, arm_diag, d_a_inv, it, basis_inv, ap, bp, cp)
+  !> the module header, from I~ = W^T I^A W; returned as its blocks at P_j.  With the Cholesky
+  !> factor I~ = L L^T (joint block first: L_SS L_SS^T = D) and the free joint's transmitted
+  !> inertia Z^-1 = L_TT L_TT^T (the inverse of the articulated compliance's T block,
+  !> Featherstone 2008, section 7.3), g = -D^-1 I~_12 = -L_SS^-T L_TS^T:
+  !>   C_11 = D (D + A)^-1 A,   C_12 = -C_11 g,   C_22 = Z^-1 + g^T C_11 g.
+  !> The same matrix as I~_22 - I~_21 (D + A)^-1 I~_12, without its cancellation: a long floppy
+  !> chain's effective mass behind a free joint is a small difference of large inertias there
+  !> (measured: solves wrong by 1e-4 at n = 40 with the difference, 3e-11 this way).  The small
+  !> dense algebra is written out: these are 6 x 6 and smaller, once per joint, where LAPACK's
+  !> call overhead would exceed the ~150 flops.  info = 1 if I~ is not positive definite.
+  pure subroutine pass_inertia(nd, arm_diag, d_a_inv, it, basis_inv, ap, bp, cp, info)
     integer, intent(in) :: nd                 !< joint coordinates
     real(dp), intent(in) :: arm_diag(3)       !< armature A (first nd)
     real(dp), intent(in) :: d_a_inv(3, 3)     !< (D + A)^-1 (leading nd x nd)
     real(dp), intent(in) :: it(6, 6)          !< I~ = W^T I^A W
     real(dp), intent(in) :: basis_inv(3, 3)   !< W_r^-1
     real(dp), intent(out) :: ap(3, 3), bp(3, 3), cp(3, 3)  !< blocks of the inertia passed on
-    real(dp) :: cb(6, 6), da_a(3, 3), t(3, 6)
-    integer :: k, l
-    ! (D + A)^-1 A, by columns: A diagonal.
-    do k = 1, nd
-      da_a(1:nd, k) = d_a_inv(1:nd, k)*arm_diag(k)
-    end do
-    ! C_11 = D (D + A)^-1 A, symmetrised; C_12 = A (D + A)^-1 I~_12 = ((D + A)^-1 A)^T I~_12.
-    do k = 1, nd
-      do l = 1, nd
-        cb(l, k) = dot_product(it(l, 1:nd), da_a(1:nd, k))
+    integer, intent(out) :: info              !< 0, or 1: not positive definite
+    real(dp) :: l(6, 6), cb(6, 6), c11(3, 3), g(3, 6), cg(3, 6), s, r3(3, 3)
+    integer :: i, j, k
+    ap = 0.0_dp; bp = 0.0_dp; cp = 0.0_dp
+    info = 0
+    ! Cholesky I~ = L L^T, lower.
+    l = 0.0_dp
+    do j = 1, 6
+      s = it(j, j)
+      do k = 1, j - 1
+        s = s - l(j, k)**2
+      end do
+      if (.not. s > 1.0e-15_dp*abs(it(j, j))) then
+        info = 1
+        return
+      end if
+      l(j, j) = sqrt(s)
+      do i = j + 1, 6
+        s = it(i, j)
+        do k = 1, j - 1
+          s = s - l(i, k)*l(j, k)
+        end do
+        l(i, j) = s/l(j, j)
       end do
     end do
-    do k = 1, nd
-      do l = 1, k - 1
-        cb(l, k) = 0.5_dp*(cb(l, k) + cb(k, l))
-        cb(k, l) = cb(l, k)
+    ! g = -L_SS^-T L_TS^T (nd x (6 - nd)), by back substitution on the columns of L_TS^T.
+    do j = nd + 1, 6
+      do i = nd, 1, -1
+        s = -l(j, i)
+        do k = i + 1, nd
+          s = s - l(k, i)*g(k, j)
+        end do
+        g(i, j) = s/l(i, i)
       end do
     end do
-    do k = nd + 1, 6
-      do l = 1, nd
-        cb(l, k) = dot_product(da_a(1:nd, l), it(1:nd, k))
-        cb(k, l) = cb(l, k)
+    ! C_11 = D (D + A)^-1 A, symmetrised.
+    do j = 1, nd
+      do i = 1, nd
+        s = 0.0_dp
+        do k = 1, nd
+          s = s + it(i, k)*d_a_inv(k, j)
+        end do
+        c11(i, j) = s*arm_diag(j)
       end do
     end do
-    ! C_22 = I~_22 - I~_21 (D + A)^-1 I~_12.
-    do k = nd + 1, 6
-      do l = 1, nd
-        t(l, k) = dot_product(d_a_inv(l, 1:nd), it(1:nd, k))
+    do j = 1, nd
+      do i = 1, nd
+        cb(i, j) = 0.5_dp*(c11(i, j) + c11(j, i))
       end do
     end do
-    do k = nd + 1, 6
-      do l = nd + 1, 6
-        cb(l, k) = it(l, k) - dot_product(it(l, 1:nd), t(1:nd, k))
+    ! C_12 = -C_11 g; C_22 = Z^-1 + g^T C_11 g, Z^-1 = L_TT L_TT^T.
+    do j = nd + 1, 6
+      do i = 1, nd
+        s = 0.0_dp
+        do k = 1, nd
+          s = s + cb(i, k)*g(k, j)
+        end do
+        cg(i, j) = s
+        cb(i, j) = -s
+        cb(j, i) = -s
+      end do
+    end do
+    do j = nd + 1, 6
+      do i = nd + 1, j
+        s = 0.0_dp
+        do k = nd + 1, i
+          s = s + l(i, k)*l(j, k)
+        end do
+        do k = 1, nd
+          s = s + g(k, i)*cg(k, j)
+        end do
+        cb(i, j) = s
+        cb(j, i) = s
       end do
     end do
     ! Back from the joint basis: I = W^-T C W^-1, W = diag(W_r, 1).
-    ap = matmul(transpose(basis_inv), matmul(cb(1:3, 1:3), basis_inv))
-    bp = matmul(transpose(basis_inv), cb(1:3, 4:6))
+    r3 = cb(1:3, 1:3)
+    ap = matmul(transpose(basis_inv), matmul(r3, basis_inv))
+    r3 = cb(1:3, 4:6)
+    bp = matmul(transpose(basis_inv), r3)
     cp = cb(4:6, 4:6)
   end subroutine pass_inertia
 
@@ -235,13 +302,11 @@ contains
     type(articulated_factors), intent(in) :: f  !< factors of articulated_factorise
     real(dp), intent(in) :: tau(:, :)         !< (nq, m) joint forces
     real(dp), intent(out) :: x(:, :)          !< (nq, m) solutions
-    ! Every joint block is padded to 3 axes with zeros (axes, U, (D + A)^-1, the dual rows),
-    ! so the kernels below are fixed-size 3 and 6 products with no branch on the joint type.
-    ! Fixed-size local copies of a joint's blocks, so that gfortran inlines the products (an
-    ! allocatable component's section goes to the library matmul).
-    real(dp) :: p(6, RHS_BLOCK), a(6, RHS_BLOCK), t(3), u(3), du(3), r(3), ax(3, 3), d_inv(3, 3), &
-                uu(6, 3), dual(3, 3), armature(3)
-    integer :: j, nd, i0, k, c, col, nb, c0
+    ! Every joint block is padded to 3 axes with zeros (axes, U, (D + A)^-1, the dual rows), so
+    ! the products below run over 3 whatever the joint; written out, since copies of the blocks
+    ! or library matmul calls on their sections cost more than the arithmetic.
+    real(dp) :: p(6, RHS_BLOCK), a(6, RHS_BLOCK), t(3), u(3), du(3), r(3)
+    integer :: j, nd, i0, k, l, c, col, nb, c0
     do c0 = 0, size(tau, 2) - 1, RHS_BLOCK
       nb = min(RHS_BLOCK, size(tau, 2) - c0)
       p(:, 1:nb) = 0.0_dp
@@ -249,8 +314,6 @@ contains
         r = f%arm(:, j)
         nd = chain%n_joint_coords(j)
         i0 = chain%first_coord(j) - 1
-        ax = f%axes(:, :, j); d_inv = f%d_inv(:, :, j); uu = f%u(:, :, j); dual = f%basis_inv(:, :, j)
-        armature = f%armature(:, j)
         do c = 1, nb
           col = c0 + c
           ! p holds the child's force passed through its joint, still at P_{j+1}: move it to P_j.
@@ -261,12 +324,23 @@ contains
           ! changes by W_r^-T (new - old), row k of W_r^-1 being the dual of axis k.
           t = 0.0_dp
           t(1:nd) = tau(i0 + 1:i0 + nd, col)
-          u = t - matmul(p(1:3, c), ax)
+          do k = 1, 3
+            u(k) = t(k) - (f%axes(1, k, j)*p(1, c) + f%axes(2, k, j)*p(2, c) + f%axes(3, k, j)*p(3, c))
+          end do
           x(i0 + 1:i0 + nd, col) = u(1:nd)
-          du = matmul(d_inv, u)
-          p(:, c) = p(:, c) + matmul(uu, du)
-          u = t - armature*du - matmul(p(1:3, c), ax)
-          p(1:3, c) = p(1:3, c) + matmul(u, dual)
+          do k = 1, 3
+            du(k) = f%d_inv(k, 1, j)*u(1) + f%d_inv(k, 2, j)*u(2) + f%d_inv(k, 3, j)*u(3)
+          end do
+          do l = 1, 6
+            p(l, c) = p(l, c) + f%u(l, 1, j)*du(1) + f%u(l, 2, j)*du(2) + f%u(l, 3, j)*du(3)
+          end do
+          do k = 1, 3
+            u(k) = t(k) - f%armature(k, j)*du(k) &
+                   - (f%axes(1, k, j)*p(1, c) + f%axes(2, k, j)*p(2, c) + f%axes(3, k, j)*p(3, c))
+          end do
+          do l = 1, 3
+            p(l, c) = p(l, c) + u(1)*f%basis_inv(1, l, j) + u(2)*f%basis_inv(2, l, j) + u(3)*f%basis_inv(3, l, j)
+          end do
         end do
       end do
       a(:, 1:nb) = 0.0_dp                     ! the base does not accelerate in this system
@@ -274,7 +348,6 @@ contains
         nd = chain%n_joint_coords(j)
         i0 = chain%first_coord(j) - 1
         if (j > 1) r = f%arm(:, j - 1)
-        ax = f%axes(:, :, j); d_inv = f%d_inv(:, :, j); uu = f%u(:, :, j)
         do c = 1, nb
           col = c0 + c
           if (j > 1) a(4:6, c) = a(4:6, c) + cross(a(1:3, c), r)   ! P_{j-1} -> P_j
@@ -282,9 +355,16 @@ contains
           ! x = (D + A)^-1 (u - U^T a), then a + S x.
           u = 0.0_dp
           u(1:nd) = x(i0 + 1:i0 + nd, col)
-          du = matmul(d_inv, u - matmul(a(:, c), uu))
+          do k = 1, 3
+            u(k) = u(k) - dot_product(f%u(:, k, j), a(:, c))
+          end do
+          do k = 1, 3
+            du(k) = f%d_inv(k, 1, j)*u(1) + f%d_inv(k, 2, j)*u(2) + f%d_inv(k, 3, j)*u(3)
+          end do
           x(i0 + 1:i0 + nd, col) = du(1:nd)
-          a(1:3, c) = a(1:3, c) + matmul(ax, du)
+          do l = 1, 3
+            a(l, c) = a(l, c) + f%axes(l, 1, j)*du(1) + f%axes(l, 2, j)*du(2) + f%axes(l, 3, j)*du(3)
+          end do
         end do
       end do
     end do

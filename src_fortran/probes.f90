@@ -20,11 +20,12 @@ module rotorcable_probes
   use rotorcable_ode_integrator, only: ode_settings, integrate_ode, ODE_RK8PD, ODE_MSBDF
   use rotorcable_linalg, only: dgetrf, dgetrs
   use rotorcable_projection, only: constraint_rank_margin
+  use rotorcable_articulated_body, only: articulated_factors, articulated_factorise, articulated_solve
   implicit none
   private
   public :: rc_probe_evaluate, rc_probe_consistent_start, rc_probe_ggl_residual, rc_probe_iteration_matrix, &
             rc_probe_time_kernels, rc_probe_integrate, rc_probe_rank_margin, rc_probe_chain_solver, &
-            rc_probe_residual_tangent
+            rc_probe_residual_tangent, rc_probe_articulated_solve
 
 contains
 
@@ -169,6 +170,35 @@ contains
     end if
     call to_status(error, stat, msg)
   end subroutine rc_probe_residual_tangent
+
+  !> (M(q) + diag(armature))^-1 tau by the articulated-body factorisation, at the frames of q at t.
+  subroutine rc_probe_articulated_solve(handle, t, nq, q, armature, tau, x, stat, msg)
+    integer(c_int), intent(in) :: handle          !< model handle
+    real(c_double), intent(in) :: t               !< time [s]
+    integer(c_int), intent(in) :: nq              !< coordinates
+    real(c_double), intent(in) :: q(nq), armature(nq), tau(nq)  !< state, diagonal, right-hand side
+    real(c_double), intent(out) :: x(nq)          !< solution
+    integer(c_int), intent(out) :: stat           !< 0 = ok
+    character(len=1024), intent(out) :: msg       !< why not
+    type(model_type), pointer :: model
+    type(error_type) :: error
+    type(articulated_factors) :: f
+    real(dp) :: rhs(nq, 1), sol(nq, 1)
+    integer :: info
+    x = 0.0_dp
+    model => model_of(handle, error)
+    if (error%code == 0) then
+      call positions_at(model, t, q)
+      call articulated_factorise(model%chain, model%st, armature, f, info)
+      if (info /= 0) call fatal_error(error, 'articulated factorisation: singular')
+    end if
+    if (error%code == 0) then
+      rhs(:, 1) = tau
+      call articulated_solve(model%chain, f, rhs, sol)
+      x = sol(:, 1)
+    end if
+    call to_status(error, stat, msg)
+  end subroutine rc_probe_articulated_solve
 
   !> The approximate iteration matrix of the chain solver (rotorcable_chain_linear_solver) at
   !> (t, q, cj), dense, with the chain solver's solutions of J x = b and the block solver's

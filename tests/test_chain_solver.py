@@ -87,7 +87,8 @@ def test_chain_solver_gives_the_same_motion(deck_copy, stem, changes, bound):
 
 def _long_chain(tmp_path, n, joint):
     """The scaling benchmark's scene: UH-60 part 2 decay cut into n bodies (66 deg of bend spread
-    over the joints, so a zy joint sits within 0.3 deg of its beta = 0 singularity at n = 200)."""
+    over the joints, so a zy joint sits within 0.3 deg of its beta = 0 singularity at n = 200);
+    joint 'xy' bends both ways, 'xyz' also twists (c_twist = c_beta)."""
     from pydriver.analyses.dynamics import start_state
     from pydriver.study import override_deck
     bend = 66.0 / (n - 1)
@@ -96,33 +97,61 @@ def _long_chain(tmp_path, n, joint):
                "loads": {"pulse_body": str(n // 2)}, "solver": {"t_end": "0.01", "dt_out": "0.01"}}
     if joint != "zy":
         changes["springs"] = {"c_gamma": "0.0", "d_gamma": "0.0"}
+    if joint == "xyz":
+        changes["springs"].update({"c_twist": "35.0", "d_twist": "0.05"})
     m = pydriver.Model.from_deck(override_deck(INPUTS / "uh60_part2_decay.nml", tmp_path / f"n{n}.nml", changes))
     q0, v0 = start_state(m)
     return m, q0, v0
 
 
-@pytest.mark.parametrize("n, joint", [(40, "zy"), (40, "xy"), (200, "zy")])
-def test_chain_solve_keeps_its_digits_on_long_chains(tmp_path, n, joint):
-    """The articulated-body recursion in its textbook form loses its digits exponentially along a
-    chain of two-axis joints (the update I - U D^-1 U^T leaves O(eps D) where O(A) belongs, and
-    the recursion amplifies that 3 to 16 times per joint): the 40-body chain's solves were off by
-    35 % at cj = 1e4.  The stable form (rotorcable_articulated_body) must give a normwise backward
-    error of order eps at every cj (bound 1e-13, LU's own bound ~ n eps as above; measured
-    1e-17 and below) and agree with the block LU of the same matrix where that matrix is well
-    conditioned (cj = 100: measured 1e-11 at n = 200, bound 1e-8)."""
+@pytest.mark.parametrize("n, joint", [(40, "xy"), (88, "xyz"), (200, "zy"), (200, "xy")])
+def test_articulated_solve_keeps_its_digits_on_long_chains(tmp_path, n, joint):
+    """(M + A)^-1 tau by the articulated-body factorisation against LAPACK's solve of the dense
+    M (composite rigid bodies), at an armature that matters (1e-3) and at none.  The textbook
+    recursion lost its digits along a chain of multi-axis joints (the 40-body xy chain: 1e-4
+    relative error, the 88-body xyz chain: 1e2, i.e. garbage); the stable form of
+    rotorcable_articulated_body has the forward error of a stable solver, ~cond(M) eps (measured
+    2.5e-9 at n = 200, cond 2e8).  Bound 100 cond eps (at least 1e-12)."""
+    m, q0, v0 = _long_chain(tmp_path, n, joint)
+    mass = m.core.evaluate(q0, v0, 0.0 * v0, np.zeros(m.nc))["M"]
+    tau = np.random.default_rng(3).standard_normal(m.nq)
+    for armature in (1.0e-3, 0.0):
+        a = mass + armature * np.eye(m.nq)
+        exact = np.linalg.solve(a, tau)
+        x = m.core.articulated_solve(q0, np.full(m.nq, armature), tau)
+        bound = max(100.0 * np.linalg.cond(a) * EPS, 1e-12)
+        assert np.linalg.norm(x - exact) <= bound * np.linalg.norm(exact), (armature, np.linalg.norm(x - exact))
+
+
+@pytest.mark.parametrize("n, joint", [(40, "xy"), (88, "xyz")])
+def test_chain_solve_keeps_its_digits_in_every_block(tmp_path, n, joint):
+    """The whole chain solve (articulated body, Schur complement on the clamp rows) against the
+    block LU of the same matrix, for right-hand sides in the v rows alone and in the constraint
+    rows alone, from cj = 1e4 (steps of 0.1 ms) to 1e12 (the first steps of a tight run), where
+    the armature no longer regularises M.  The backward error is taken block by block (rows of
+    q, v, g, G v): over all rows at once the cj I of the q rows swamps it, and it passed while
+    the v rows were wrong by 300 %.  Bound 1e-13 (LU's ~n eps; measured 5e-17 for both solvers).
+    For v-row right-hand sides the solution itself agrees with LU's to 1e-6 (measured 3e-11;
+    with constraint-row ones the multipliers reach 1e13 at cj = 1e12 and both solvers' forward
+    errors are cond(J) eps, so only the backward error is compared there)."""
     m, q0, v0 = _long_chain(tmp_path, n, joint)
     y, _ = m.core.consistent_ggl_state(q0, v0)
-    b = np.random.default_rng(5).standard_normal((len(y), 2))
-    for cj in (1.0e2, 1.0e4, 1.0e6, 1.0e8):
-        out = m.core.chain_solver(y, cj, b)
-        jac, xc = out["jacobian"], out["x_chain"]
-        for k in range(b.shape[1]):
-            err = np.abs(jac @ xc[:, k] - b[:, k]).max()
-            scale = np.abs(jac).sum(axis=1).max() * np.abs(xc[:, k]).max() + np.abs(b[:, k]).max()
-            assert err / scale < 1e-13, (cj, err / scale)
-        if cj == 1.0e2:
-            xb = out["x_block"]
-            assert np.abs(xc - xb).max() / np.abs(xb).max() < 1e-8
+    nq, nc = m.nq, m.nc
+    blocks = [slice(0, nq), slice(nq, 2 * nq), slice(2 * nq, 2 * nq + nc), slice(2 * nq + nc, 2 * nq + 2 * nc)]
+    rng = np.random.default_rng(4)
+    for rows in (slice(nq, 2 * nq), slice(2 * nq, 2 * nq + 2 * nc)):
+        b = np.zeros(len(y))
+        b[rows] = rng.standard_normal(rows.stop - rows.start)
+        for cj in (1.0e4, 1.0e8, 1.0e12):
+            out = m.core.chain_solver(y, cj, b[:, None])
+            jac, x = out["jacobian"], out["x_chain"][:, 0]
+            r = jac @ x - b
+            for blk in blocks:
+                scale = np.abs(jac[blk]).sum(axis=1).max() * np.abs(x).max() + np.abs(b[blk]).max()
+                assert np.abs(r[blk]).max() <= 1e-13 * scale, (rows, cj, blk)
+            if rows.start == nq:
+                xb = out["x_block"][:, 0]
+                assert np.abs(x - xb).max() <= 1e-6 * np.abs(xb).max(), cj
 
 
 def test_chain_solver_runs_a_long_chain_like_the_block_solver(tmp_path):
