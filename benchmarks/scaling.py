@@ -6,13 +6,15 @@ the decay test; 0.05 s are integrated with IDA (GGL index-2, rtol 1e-6, atol 1e-
 runs in a fresh process (peak memory = that process's max RSS) and reports:
 
 * wall time of the integration alone per simulated second (harness.timed_run; the start
-  equilibrium and the outputs are not timed) and the steps it took, median of ``--repeat``
-  runs, with the default
-  block (Schur-complement) linear solver and, for n <= ``--dense-max``, once with SUNDIALS's
-  dense LU of the whole iteration matrix (``&solver linear_solver = 'dense'``, the "before");
-* the cost of one GGL residual, one structured Jacobian and one mass matrix (core probe);
-* one factorisation and one solve of the iteration matrix at cj = 1e4: the block solver
-  against LAPACK's dense LU (dgetrf/dgetrs) of the whole matrix (core probe);
+  equilibrium and the outputs are not timed, the consistent start is) and the steps it took,
+  median of ``--repeat`` runs, with the default linear solver (``'chain'``: O(n)
+  articulated-body factorisation) and, once each, with the block (Schur-complement, O(n^3))
+  solver for n <= ``--block-max`` and SUNDIALS's dense LU of the whole iteration matrix for
+  n <= ``--dense-max`` (the earlier defaults: the "before");
+* the cost of one GGL residual, one Jacobian with analytic and with finite-difference physics
+  columns, and one mass matrix (core probe);
+* one factorisation and one solve at cj = 1e4: the chain solver's, the block solver's and
+  LAPACK's dense LU (dgetrf/dgetrs) of the whole matrix (core probes);
 * peak resident memory of the process.
 
 Targets (issue 14): n = 200 at most 2 s of wall time per simulated second, and the exponent
@@ -70,7 +72,7 @@ def deck_for(n: int, path: Path, sets: dict | None = None) -> Path:
     return override_deck(ROOT / "inputs" / "uh60_part2_decay.nml", path, changes)
 
 
-def measure_one(n: int, repeat: int, dense: bool, sets: dict) -> dict:
+def measure_one(n: int, repeat: int, block: bool, dense: bool, sets: dict) -> dict:
     """Runs in a child process: one n, returns the measurements as a dict."""
     import resource
 
@@ -82,22 +84,31 @@ def measure_one(n: int, repeat: int, dense: bool, sets: dict) -> dict:
         out = timed_run(model, q0, v0, T_SIM, rtol=1e-6, atol=1e-8)
         walls.append(out["wall_s"])
         stats = out["stats"]
-    wall_dense = float("nan")
-    if dense:
-        wall_dense = timed_run(model, q0, v0, T_SIM, rtol=1e-6, atol=1e-8, linear_solver="dense")["wall_s"] / T_SIM
+    def other(solver, run):
+        if not run:
+            return float("nan"), 0
+        o = timed_run(model, q0, v0, T_SIM, rtol=1e-6, atol=1e-8, linear_solver=solver)
+        return o["wall_s"] / T_SIM, o["stats"]["steps"]
+    wall_block, steps_block = other("block", block)
+    wall_dense, _ = other("dense", dense)
     nq, nc = model.nq, model.nc
     y, yd = model.core.consistent_ggl_state(q0, v0)
     kern = model.core.time_kernels(y, yd, max(200, 200000 // n))
     rhs = np.random.default_rng(0).standard_normal((2 * nq + 2 * nc, 1))
     it = model.core.iteration_matrix(y, yd, 1.0e4, rhs, max(3, 20000 // n))
+    chain = model.core.chain_solver(y, 1.0e4, rhs, max(20, 20000 // n))
     rss_kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return {"n_bodies": n, "n_unknowns": 2 * nq + 2 * nc, "wall_per_sim_s": float(np.median(walls)) / T_SIM,
-            "wall_per_sim_s_dense": wall_dense, "block_factor_ns": it["ns_block_factor"],
+            "wall_per_sim_s_block": wall_block, "steps_block": steps_block,
+            "wall_per_sim_s_dense": wall_dense,
+            "chain_factor_ns": chain["ns_factor"], "chain_solve_ns": chain["ns_solve"],
+            "block_factor_ns": it["ns_block_factor"],
             "block_solve_ns": it["ns_block_solve"], "lapack_dense_factor_ns": it["ns_dense_factor"],
             "lapack_dense_solve_ns": it["ns_dense_solve"],
             "steps": stats["steps"], "residual_evals": stats["residual_evals"],
             "jacobian_evals": stats["jacobian_evals"], "residual_ns": kern["residual_ns"],
-            "jacobian_ns": kern["jacobian_ns"], "mass_matrix_ns": kern["mass_matrix_ns"],
+            "jacobian_ns": kern["jacobian_ns"], "jacobian_fd_ns": kern["jacobian_fd_ns"],
+            "mass_matrix_ns": kern["mass_matrix_ns"],
             "peak_rss_mib": rss_kib / 1024.0, "max_g_m": out["gmax_end"]}
 
 
@@ -136,31 +147,37 @@ def main(argv=None) -> int:
     ap.add_argument("--strict", action="store_true", help="exit status 1 if a target is missed")
     add_set_option(ap)
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--block-max", type=int, default=200,
+                    help="largest n also run with the block (Schur-complement) linear solver (one run)")
     ap.add_argument("--dense-max", type=int, default=120,
                     help="largest n also run with the dense linear solver (one run)")
     ap.add_argument("--child", type=int, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     sets = parse_sets(args.sets)
     if args.child:
-        print(json.dumps(measure_one(args.child, args.repeat, args.child <= args.dense_max, sets)))
+        print(json.dumps(measure_one(args.child, args.repeat, args.child <= args.block_max,
+                                     args.child <= args.dense_max, sets)))
         return 0
     if sets:
         print("deck overrides: " + ", ".join(f"{k} = {v}" for k, v in sets.items()))
     rows = []
     for n in args.sizes:
         out = subprocess.run([sys.executable, __file__, "--child", str(n), "--repeat", str(args.repeat),
-                              "--dense-max", str(args.dense_max)] + set_args(sets),
+                              "--block-max", str(args.block_max), "--dense-max", str(args.dense_max)]
+                             + set_args(sets),
                              capture_output=True, text=True, cwd=ROOT)
         if out.returncode != 0:
             # A failed size is a failed benchmark: say which and why, do not fit around it.
             raise SystemExit(f"n = {n}: child failed (exit {out.returncode}):\n{out.stderr[-3000:]}")
         row = json.loads(out.stdout.strip().splitlines()[-1])
         rows.append(row)
-        print(f"n = {n:4d}: {row['wall_per_sim_s']:9.3f} s per simulated s (dense LU "
-              f"{row['wall_per_sim_s_dense']:9.3f}), {row['steps']:5d} steps, "
-              f"factor block/LAPACK {row['block_factor_ns'] / 1e3:8.1f}/{row['lapack_dense_factor_ns'] / 1e3:8.1f} us, "
-              f"residual {row['residual_ns'] / 1e3:8.2f} us, Jacobian {row['jacobian_ns'] / 1e6:8.3f} ms, "
-              f"M {row['mass_matrix_ns'] / 1e3:8.2f} us, peak RSS {row['peak_rss_mib']:.0f} MiB", flush=True)
+        print(f"n = {n:4d}: {row['wall_per_sim_s']:8.3f} s per simulated s, {row['steps']:5d} steps "
+              f"(block {row['wall_per_sim_s_block']:8.3f} s, {row['steps_block']} steps; dense LU "
+              f"{row['wall_per_sim_s_dense']:8.3f} s); factor chain/block/LAPACK "
+              f"{row['chain_factor_ns'] / 1e3:7.1f}/{row['block_factor_ns'] / 1e3:8.1f}/"
+              f"{row['lapack_dense_factor_ns'] / 1e3:8.1f} us, solve chain {row['chain_solve_ns'] / 1e3:6.1f} us, "
+              f"residual {row['residual_ns'] / 1e3:7.2f} us, Jacobian analytic/FD {row['jacobian_ns'] / 1e6:7.3f}/"
+              f"{row['jacobian_fd_ns'] / 1e6:7.3f} ms, peak RSS {row['peak_rss_mib']:.0f} MiB", flush=True)
     OUT.mkdir(parents=True, exist_ok=True)
     with open(OUT / "scaling.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
@@ -169,8 +186,8 @@ def main(argv=None) -> int:
     n = np.array([r["n_bodies"] for r in rows], float)
     big = n >= 20   # asymptotic range
     fits = {key: slope(n[big], np.array([r[key] for r in rows])[big])
-            for key in ("wall_per_sim_s", "residual_ns", "jacobian_ns", "mass_matrix_ns",
-                        "block_factor_ns", "lapack_dense_factor_ns")}
+            for key in ("wall_per_sim_s", "residual_ns", "jacobian_ns", "mass_matrix_ns", "chain_factor_ns",
+                        "chain_solve_ns", "block_factor_ns", "lapack_dense_factor_ns")}
     print("fitted exponents (n >= 20): " + ", ".join(f"{k} ~ n^{v:.2f}" for k, v in fits.items()))
     targets = verdicts(rows)
     print(f"target n = {TARGET_N}: {targets['wall_per_sim_s_n200']:.3g} s per simulated s "
@@ -184,15 +201,17 @@ def main(argv=None) -> int:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
-    for key, label in (("wall_per_sim_s", "wall time per simulated second [s]"),
-                       ("residual_ns", "one GGL residual [ns]"), ("jacobian_ns", "one Jacobian [ns]"),
-                       ("mass_matrix_ns", "one mass matrix [ns]"),
+    for key, label in (("wall_per_sim_s", "wall time per simulated second, chain solver [s]"),
+                       ("residual_ns", "one GGL residual [ns]"), ("jacobian_ns", "one analytic Jacobian [ns]"),
+                       ("chain_factor_ns", "chain factorisation [ns]"), ("chain_solve_ns", "chain solve [ns]"),
                        ("block_factor_ns", "block factorisation [ns]"),
                        ("lapack_dense_factor_ns", "dense LU, LAPACK [ns]")):
         ax.loglog(n, [r[key] for r in rows], "o-", label=f"{label}  (~n^{fits[key]:.2f})")
-    dense = [(r["n_bodies"], r["wall_per_sim_s_dense"]) for r in rows if np.isfinite(r["wall_per_sim_s_dense"])]
-    if dense:
-        ax.loglog(*zip(*dense), "s--", color="grey", label="wall per simulated s, SUNDIALS dense LU (before)")
+    for key, style, label in (("wall_per_sim_s_block", "s--", "wall per simulated s, block solver (before)"),
+                              ("wall_per_sim_s_dense", "^:", "wall per simulated s, SUNDIALS dense LU")):
+        pts = [(r["n_bodies"], r[key]) for r in rows if np.isfinite(r[key])]
+        if pts:
+            ax.loglog(*zip(*pts), style, color="grey", label=label)
     ax.set_xlabel("number of bodies n")
     ax.set_title("rotorcable scaling, closed chain (UH-60 part 2 cut into n bodies)")
     ax.grid(True, which="both", alpha=0.3)

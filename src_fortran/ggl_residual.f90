@@ -80,11 +80,11 @@ contains
   !>   [ dF_v/dq          cj M + dF_v/dv       -G^T     0   ]   v rows (eq. 3.50)
   !>   [ G                        0              0      0   ]   g rows
   !>   [ d(G v)/dq                G              0      0   ]   G v rows
-  !> M comes from the composite-rigid-body algorithm and G, G^T, -I exactly; only the
-  !> smooth physics columns dF/dq and dF/dv (stiffness, gyroscopic and damper terms) are
-  !> forward differences of the residual at fixed y', which never multiply cj.  IDA's DQ
-  !> perturbs y and y' = cj*inc together, so at the tiny first steps of tight tolerances
-  !> (cj ~ 1e20) its columns are round-off: the corrector then fails at t = 0.
+  !> M comes from the composite-rigid-body algorithm and G, G^T, -I exactly; the smooth
+  !> physics columns dF/dq and dF/dv (stiffness, gyroscopic and damper terms), which never
+  !> multiply cj, are tangent sweeps or forward differences at fixed y' (physics_jacobian).
+  !> IDA's DQ perturbs y and y' = cj*inc together, so at the tiny first steps of tight
+  !> tolerances (cj ~ 1e20) its columns would be round-off: the corrector then fails at t = 0.
   subroutine ggl_jacobian_dense(model, t, cj, y, yd, jac, analytic)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t, cj             !< time [s], IDA's cj = alpha/h [1/s]
@@ -208,7 +208,7 @@ contains
   end subroutine add_exact_blocks
 
   !> IDALsJacFn: fills SUNDIALS's dense matrix (column-major, n x n).  The physics columns
-  !> (finite differences, 2 nq residuals) are kept from one call to the next unless IDA had
+  !> (tangent sweeps or differences, physics_jacobian) are kept from one call to the next unless IDA had
   !> a convergence failure since, or they are older than jacobian_max_age steps; cj I, cj M
   !> and the constraint blocks are always exact at the current state.  IDA calls this at
   !> every linear-solver setup, i.e. whenever cj has changed by more than 25 %, which on a

@@ -159,9 +159,8 @@ def test_chain_solver_runs_a_long_chain_like_the_block_solver(tmp_path):
     h ~ 1e-23) integrates with the chain solver to where the block solver gets.  Same model and
     tolerances, different Newton matrices, so the ends differ by the integration error: rtol
     1e-6 / atol 1e-8 on a 0.25 mm motion gives local errors ~1e-10 m, their sum over 300 steps
-    at most ~1e-8 m; bound
-    1e-7 m, measured 5e-11 m on a 0.25 mm motion."""
-    m, q0, v0 = _long_chain(tmp_path, 40, "zy")
+    at most ~1e-8 m; bound 1e-7 m, measured 5e-11 m."""
+    m, _, _ = _long_chain(tmp_path, 40, "zy")
     ends = []
     for solver in ("block", "chain"):
         r = pydriver.run_deck(m.with_changes({"solver.linear_solver": solver}))
