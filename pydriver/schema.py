@@ -234,11 +234,11 @@ def _keys() -> list[Key]:
             doc="equilibrium by Newton, or by damped dynamic settling (thesis 5.3)"))
     add(Key("solver", "settle_tol", "real", unit="rad/s", default=1.0e-8, **POS,
             doc="settled when max |qdot| < settle_tol"))
-    add(Key("solver", "linear_solver", "str", default="chain", choices=("block", "dense", "chain"),
+    add(Key("solver", "linear_solver", "str", default="auto", choices=("auto", "chain", "block", "dense"),
             doc="IDA linear solver: 'chain', an O(n) articulated-body solve of an approximate iteration "
                 "matrix (mass, joint springs and dampers, constraints; no Jacobian formed); 'block', "
                 "Schur-complement blocks of the full iteration matrix (O(n^3)); 'dense', SUNDIALS's "
-                "dense LU of it"))
+                "dense LU of it; 'auto': block below 32 coordinates, chain from 32 on (docs/jacobian.md)"))
     add(Key("solver", "jacobian", "str", default="analytic", choices=("analytic", "finite_difference"),
             doc="physics columns of the iteration matrix (dF/dq, dF/dv; 'block' and 'dense'): tangent "
                 "sweeps of the residual, exact and O(n^2), or forward differences (the check)"))

@@ -31,7 +31,8 @@ def test_chain_solve_matches_block_solve_of_the_same_matrix(stem, cj):
     error of two stable solvers, at most a small multiple of cond(J) eps (Higham 2002, ch. 7):
     bound 100 cond(J) eps, which is below 1e-10 for these matrices except where cond(J) itself
     says no solver can do better.  The backward error of the chain solution must be of order eps
-    (iterative refinement; LU's own bound ~ n eps, here 1e-13 as in test_linear_solver)."""
+    (the stable recursion of rotorcable_articulated_body; LU's own bound ~ n eps, here 1e-13 as
+    in test_linear_solver)."""
     out, b = _chain(stem, cj)
     jac, xc, xb = out["jacobian"], out["x_chain"], out["x_block"]
     cond = np.linalg.cond(jac)
@@ -168,3 +169,16 @@ def test_chain_solver_runs_a_long_chain_like_the_block_solver(tmp_path):
         ends.append(np.array([ts[c][-1] for c in ts if c[0] in "xyz" and c[1:].isdigit()]))
         assert r.summary["solver"]["convergence_failures"] <= 10
     assert np.abs(ends[1] - ends[0]).max() < 1e-7
+
+
+def test_auto_picks_the_block_solver_for_small_chains_and_the_chain_solver_for_long_ones():
+    """``linear_solver = 'auto'`` (the default): the block solver below 32 coordinates (the UH-60
+    decay, 20), the chain solver from 32 on (the forward-flight cable, 33); a run reports which it
+    used, and an explicit choice is kept."""
+    small = pydriver.Model.from_deck(INPUTS / "uh60_part2_decay.nml")
+    large = pydriver.Model.from_deck(INPUTS / "uh60_part2_forward_flight_cable.nml")
+    assert (small.nq, small.linear_solver()) == (20, "block")
+    assert (large.nq, large.linear_solver()) == (33, "chain")
+    assert small.with_changes({"solver.linear_solver": "chain"}).linear_solver() == "chain"
+    r = pydriver.run_deck(small.with_changes({"solver.t_end": 0.01, "solver.dt_out": 0.01}))
+    assert r.summary["linear_solver"] == "block"
