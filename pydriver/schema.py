@@ -242,8 +242,9 @@ def _keys() -> list[Key]:
     add(Key("solver", "jacobian", "str", default="analytic", choices=("analytic", "finite_difference"),
             doc="physics columns of the iteration matrix (dF/dq, dF/dv; 'block' and 'dense'): tangent "
                 "sweeps of the residual, exact and O(n^2), or forward differences (the check)"))
-    add(Key("solver", "jacobian_max_age", "int", default=50, low=1,
-            doc="steps over which the physics part of the Jacobian is kept"))
+    add(Key("solver", "jacobian_max_age", "int", default=100, low=1,
+            doc="steps over which the physics part of the Jacobian is kept (and the chain solver's "
+                "factors at most)"))
     add(Key("solver", "vector_kernels", "str", default="compiled", choices=("compiled", "sundials"),
             doc="IDA's N_Vector operations: compiled loops or the library's own"))
     add(Key("solver", "periodic_tol", "real", unit="m", default=1.0e-6, **POS,

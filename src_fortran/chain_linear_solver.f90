@@ -43,7 +43,7 @@ module rotorcable_chain_linear_solver
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_ptr, c_long, c_null_ptr, c_funloc, c_loc, &
                                          c_f_pointer, c_associated
   use rotorcable_kinds, only: dp
-  use rotorcable_linalg, only: dgetrf, dgetrs, dgemm, dgemv
+  use rotorcable_linalg, only: dgetrf, dgemm, dgemv, lu_solve
   use rotorcable_model, only: model_type, positions_at, joint_diagonal, mass_matrix
   use rotorcable_articulated_body, only: articulated_factors, articulated_factorise, articulated_solve
   use rotorcable_ida_binding, only: sun_linear_solver, sun_linear_solver_ops, SUNLinSolNewEmpty, &
@@ -174,7 +174,7 @@ contains
       z(nc + 1:2*nc) = b(2*nq + nc + 1:2*nq + 2*nc) - gw                     ! rc - C K^-1 r2
       call dgemv('N', nc, nq, -1.0_dp, self%g, nc, b, 1, -1.0_dp, gw, 1)
       z(1:nc) = cj*b(2*nq + 1:2*nq + nc) + gw
-      call dgetrs('N', 2*nc, 1, self%s, 2*nc, self%s_pivots, z, 2*nc, info)
+      call lu_solve(2*nc, self%s, self%s_pivots, z)
       call dgemv('N', nq, 2*nc, 1.0_dp, self%kinv_b, nq, z, 1, 1.0_dp, w, 1)   ! + K^-1 B z
       call dgemv('T', nc, nq, -1.0_dp, self%g, nc, z(nc + 1), 1, 1.0_dp, x, 1) ! b1 - G^T m
       x(2*nq + 1:2*nq + 2*nc) = z

@@ -40,7 +40,7 @@ module rotorcable_dae_integrator
     integer :: max_steps = 500000             !< step budget of the whole run (a run never hangs)
     logical :: structured_jacobian = .true.   !< own Jacobian (ggl_jacobian) instead of IDA's DQ
     integer :: linear_solver = LINEAR_SOLVER_BLOCK  !< block needs the structured Jacobian (cj)
-    integer :: jacobian_max_age = 50          !< steps over which the physics Jacobian is kept (CVODE: msbj = 51)
+    integer :: jacobian_max_age = 100         !< steps over which the physics Jacobian is kept (docs/model.md)
     logical :: compiled_vector_kernels = .true.  !< nvector_kernels instead of libsundials's own
     logical :: analytic_jacobian = .true.     !< physics Jacobian by tangent sweeps (else differences)
   end type integrator_settings

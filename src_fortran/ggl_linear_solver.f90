@@ -27,7 +27,7 @@ module rotorcable_ggl_linear_solver
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_ptr, c_null_ptr, c_funloc, c_loc, &
                                          c_f_pointer, c_associated
   use rotorcable_kinds, only: dp
-  use rotorcable_linalg, only: dgetrf, dgetrs, dgemv
+  use rotorcable_linalg, only: dgetrf, dgetrs, dgemv, lu_solve
   use rotorcable_ida_binding, only: sun_linear_solver, sun_linear_solver_ops, SUNLinSolNewEmpty, &
                                     SUNLinSolFreeEmpty, SUNDenseMatrix_Data, N_VGetArrayPointer, &
                                     SUNLINEARSOLVER_DIRECT, SUNLS_SUCCESS, SUNLS_LUFACT_FAIL
@@ -124,17 +124,17 @@ contains
     real(dp), intent(in) :: b(:)              !< right-hand side (b1, b2, b3, b4)
     real(dp), intent(out) :: x(:)             !< solution (a, w, l, m)
     real(dp) :: t(self%nq + 2*self%nc), w(self%nq), z(2*self%nc), cj
-    integer :: nq, nc, m, info
+    integer :: nq, nc, m
     nq = self%nq; nc = self%nc; cj = self%cj; m = nq + 2*nc
     call dgemv('N', m, nq, 1.0_dp, self%b1_rows, m, b, 1, 0.0_dp, t, 1)   ! [Kq/cj; G; Cq/cj] b1
     w = b(nq + 1:2*nq) - t(1:nq)                                           ! r2
-    call dgetrs('N', nq, 1, self%k, nq, self%k_pivots, w, nq, info)       ! K^-1 r2
+    call lu_solve(nq, self%k, self%k_pivots, w)                            ! K^-1 r2
     x(1:nq) = b(1:nq)
     if (nc > 0) then
       z(1:nc) = cj*b(2*nq + 1:2*nq + nc) - t(nq + 1:nq + nc)               ! rc
       z(nc + 1:2*nc) = b(2*nq + nc + 1:2*nq + 2*nc) - t(nq + nc + 1:m)
       call dgemv('N', 2*nc, nq, -1.0_dp, self%c_rows, 2*nc, w, 1, 1.0_dp, z, 1)       ! - C K^-1 r2
-      call dgetrs('N', 2*nc, 1, self%s, 2*nc, self%s_pivots, z, 2*nc, info)
+      call lu_solve(2*nc, self%s, self%s_pivots, z)
       call dgemv('N', nq, 2*nc, 1.0_dp, self%kinv_b, nq, z, 1, 1.0_dp, w, 1)          ! + K^-1 B z
       call dgemv('N', nq, nc, -1.0_dp, self%g_t, nq, z(nc + 1:), 1, 1.0_dp, x, 1)     ! b1 - G^T m
       x(2*nq + 1:2*nq + 2*nc) = z

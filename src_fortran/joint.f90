@@ -22,7 +22,7 @@
 !> select-case blocks.
 module rotorcable_joint
   use rotorcable_kinds, only: dp
-  use rotorcable_rotations, only: rot_x, rot_y, rot_z, cross
+  use rotorcable_rotations, only: cross
   implicit none
   private
   public :: JOINT_ZY, JOINT_XY, JOINT_XYZ, MAX_JOINT_DOF, joint_ndof, joint_rotation, joint_axes, &
@@ -73,22 +73,29 @@ contains
     integer, intent(in) :: kind        !< parametrisation
     real(dp), intent(in) :: angles(MAX_JOINT_DOF)  !< joint angles [rad] (gamma, beta) for JOINT_ZY
     real(dp) :: r_rel(3, 3)
-    real(dp) :: a(3, 3), b(3, 3), c(3, 3), ab(3, 3)
+    real(dp) :: c1, s1, c2, s2, c3, s3, col1(3), col2(3)
+    ! The products of the elementary rotations written out (every joint of every residual
+    ! passes here: two matrix products cost more than the sines).
+    c1 = cos(angles(1)); s1 = sin(angles(1))
+    c2 = cos(angles(2)); s2 = sin(angles(2))
     select case (kind)
     case (JOINT_ZY)
-      a = rot_z(angles(1))
-      b = rot_y(angles(2))
-      r_rel = matmul(a, b)
-    case (JOINT_XY)
-      a = rot_x(angles(1))
-      b = rot_y(angles(2))
-      r_rel = matmul(a, b)
-    case (JOINT_XYZ)
-      a = rot_x(angles(1))
-      b = rot_y(angles(2))
-      c = rot_z(angles(3))
-      ab = matmul(a, b)
-      r_rel = matmul(ab, c)
+      ! Rz(gamma) Ry(beta)
+      r_rel(1, 1) = c1*c2; r_rel(2, 1) = s1*c2; r_rel(3, 1) = -s2
+      r_rel(1, 2) = -s1;   r_rel(2, 2) = c1;    r_rel(3, 2) = 0.0_dp
+      r_rel(1, 3) = c1*s2; r_rel(2, 3) = s1*s2; r_rel(3, 3) = c2
+    case (JOINT_XY, JOINT_XYZ)
+      ! Rx(phi) Ry(theta)
+      r_rel(1, 1) = c2;     r_rel(2, 1) = s1*s2;  r_rel(3, 1) = -c1*s2
+      r_rel(1, 2) = 0.0_dp; r_rel(2, 2) = c1;     r_rel(3, 2) = s1
+      r_rel(1, 3) = s2;     r_rel(2, 3) = -s1*c2; r_rel(3, 3) = c1*c2
+      if (kind == JOINT_XYZ) then
+        ! ... Rz(psi): the first two columns turn about the third.
+        c3 = cos(angles(3)); s3 = sin(angles(3))
+        col1 = r_rel(:, 1); col2 = r_rel(:, 2)
+        r_rel(:, 1) = c3*col1 + s3*col2
+        r_rel(:, 2) = c3*col2 - s3*col1
+      end if
     case default
       r_rel = 0.0_dp
     end select
