@@ -241,7 +241,7 @@ def _keys() -> list[Key]:
                 "dense LU of it; 'auto': block below 32 coordinates, chain from 32 on (docs/jacobian.md)"))
     add(Key("solver", "jacobian", "str", default="analytic", choices=("analytic", "finite_difference"),
             doc="physics columns of the iteration matrix (dF/dq, dF/dv; 'block' and 'dense'): tangent "
-                "sweeps of the residual, exact and O(n^2), or forward differences (the check)"))
+                "sweeps of the residual, exact and O(n^2), or central differences (the check)"))
     add(Key("solver", "jacobian_max_age", "int", default=100, low=1,
             doc="steps over which the physics part of the Jacobian is kept (and the chain solver's "
                 "factors at most)"))

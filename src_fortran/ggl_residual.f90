@@ -82,7 +82,7 @@ contains
   !>   [ d(G v)/dq                G              0      0   ]   G v rows
   !> M comes from the composite-rigid-body algorithm and G, G^T, -I exactly; the smooth
   !> physics columns dF/dq and dF/dv (stiffness, gyroscopic and damper terms), which never
-  !> multiply cj, are tangent sweeps or forward differences at fixed y' (physics_jacobian).
+  !> multiply cj, are tangent sweeps or central differences at fixed y' (physics_jacobian).
   !> IDA's DQ perturbs y and y' = cj*inc together, so at the tiny first steps of tight
   !> tolerances (cj ~ 1e20) its columns would be round-off: the corrector then fails at t = 0.
   subroutine ggl_jacobian_dense(model, t, cj, y, yd, jac, analytic)
@@ -98,14 +98,14 @@ contains
   !> The smooth physics columns dF/dq and dF/dv of the GGL residual at fixed y'; they do not
   !> depend on cj and may be kept over several steps.  Analytic: one tangent sweep
   !> (ggl_residual_tangent) per column, each starting at the body whose joint the column moves,
-  !> O(n^2) in all and exact to round-off.  Otherwise forward differences, kept as the check
+  !> O(n^2) in all and exact to round-off.  Otherwise central differences, kept as the check
   !> of the analytic columns (tests/test_analytic_jacobian.py).
   subroutine physics_jacobian(model, t, y, yd, jac, analytic)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t                 !< time [s]
     real(dp), intent(in) :: y(:), yd(:)       !< unknowns and their derivatives
     real(dp), intent(out) :: jac(:, :)        !< (n,n); multiplier columns left zero
-    logical, intent(in) :: analytic           !< tangent sweeps, else forward differences
+    logical, intent(in) :: analytic           !< tangent sweeps, else central differences
     if (analytic) then
       call physics_jacobian_analytic(model, t, y, yd, jac)
     else
@@ -161,25 +161,28 @@ contains
                                                   dy(2*nq + nc + 1:n), dr(1:nq))
   end subroutine ggl_residual_tangent
 
-  !> The physics columns by forward differences of the residual at fixed y'.
+  !> The physics columns by central differences of the residual at fixed y' (the check of the
+  !> analytic columns, so accuracy before cost: truncation ~h^2, round-off ~eps/h, balanced at
+  !> h = eps^(1/3) per unit of |y|; about 1e-10 relative against 1e-8 for forward differences).
   subroutine physics_jacobian_differences(model, t, y, yd, jac)
     type(model_type), intent(inout) :: model
     real(dp), intent(in) :: t
     real(dp), intent(in) :: y(:), yd(:)
     real(dp), intent(out) :: jac(:, :)
-    real(dp) :: r0(size(y)), r1(size(y)), yy(size(y)), inc
+    real(dp) :: r_plus(size(y)), r_minus(size(y)), yy(size(y)), inc
     integer :: nq, j
     nq = model%nq
     jac = 0.0_dp
     yy = y
-    call ggl_residual_dense(model, t, yy, yd, r0)
     do j = 1, 2*nq
       ! Coordinates are angles and rates of order one: a relative step with a floor.
-      inc = sqrt(epsilon(1.0_dp))*max(abs(y(j)), 1.0_dp)
+      inc = epsilon(1.0_dp)**(1.0_dp/3.0_dp)*max(abs(y(j)), 1.0_dp)
       yy(j) = y(j) + inc
-      call ggl_residual_dense(model, t, yy, yd, r1)
+      call ggl_residual_dense(model, t, yy, yd, r_plus)
+      yy(j) = y(j) - inc
+      call ggl_residual_dense(model, t, yy, yd, r_minus)
       yy(j) = y(j)
-      jac(:, j) = (r1 - r0)/inc
+      jac(:, j) = (r_plus - r_minus)/(2.0_dp*inc)
     end do
   end subroutine physics_jacobian_differences
 
@@ -232,7 +235,7 @@ contains
         steps - ud%physics_step >= ud%jacobian_max_age) then
       call physics_jacobian(ud%model, t, y, yd, ud%physics, ud%analytic)
       ud%jac_residuals = ud%jac_residuals + 1
-      if (.not. ud%analytic) ud%jac_residuals = ud%jac_residuals + 2*ud%nq
+      if (.not. ud%analytic) ud%jac_residuals = ud%jac_residuals + 4*ud%nq - 1
       ud%physics_evals = ud%physics_evals + 1
       ud%physics_valid = .true.
       ud%physics_step = steps
