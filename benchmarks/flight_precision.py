@@ -133,7 +133,10 @@ def decay_case(args, sets, rows, info) -> callable:
         print(f"  decay  {method:16s} {knob}={value:9.3g} cpu {rows[-1]['cpu_s']:9.4f} s  error {err:9.2e} m",
               flush=True)
 
-    for rtol in (1e-3, 1e-4, 1e-5, 1e-6, 1e-7):
+    # From rtol 1e-2: at 1e-3 the error is already below the 1e-6 m target (6.8e-7 m), so
+    # without the looser settings the time to the target could not be interpolated for
+    # rotorcable as it is for Exudyn, only taken at the first setting below it.
+    for rtol in (1e-2, 3e-3, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7):
         add("rotorcable-IDA", "rtol", rtol, wp.median_run(lambda: wp.fortran_run(deck, "rotorcable-IDA", rtol),
                                                           args.repeat))
     def peer():

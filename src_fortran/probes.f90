@@ -384,20 +384,8 @@ contains
     call system_clock(k1)
     ns_residual = 1.0e9_dp*real(k1 - k0, dp)/real(rate, dp)/n_rep
     n_jac = n_rep/100 + 1
-    call system_clock(k0)
-    do i = 1, n_jac
-      call ggl_jacobian_dense(model, t, 1.0e3_dp, y, yd, jac, .true.)
-      sink = sink + jac(1, 1)
-    end do
-    call system_clock(k1)
-    ns_jacobian = 1.0e9_dp*real(k1 - k0, dp)/real(rate, dp)/n_jac
-    call system_clock(k0)
-    do i = 1, n_jac
-      call ggl_jacobian_dense(model, t, 1.0e3_dp, y, yd, jac, .false.)
-      sink = sink + jac(1, 1)
-    end do
-    call system_clock(k1)
-    ns_jacobian_fd = 1.0e9_dp*real(k1 - k0, dp)/real(rate, dp)/n_jac
+    ns_jacobian = ns_per_jacobian(.true.)
+    ns_jacobian_fd = ns_per_jacobian(.false.)
     call system_clock(k0)
     do i = 1, n_rep
       call mass_matrix(model, t, y(1:model%nq), m)
@@ -408,6 +396,20 @@ contains
     call ggl_residual_dense(model, t, y, yd, residual)
     stat = 0; msg = ''
     if (sink /= sink) msg = 'NaN'   ! keeps sink alive
+
+  contains
+
+    !> Wall time of one iteration matrix [ns], physics columns analytic or by differences.
+    real(dp) function ns_per_jacobian(analytic)
+      logical, intent(in) :: analytic
+      call system_clock(k0)
+      do i = 1, n_jac
+        call ggl_jacobian_dense(model, t, 1.0e3_dp, y, yd, jac, analytic)
+        sink = sink + jac(1, 1)
+      end do
+      call system_clock(k1)
+      ns_per_jacobian = 1.0e9_dp*real(k1 - k0, dp)/real(rate, dp)/n_jac
+    end function ns_per_jacobian
   end subroutine rc_probe_time_kernels
 
   !> One timed integration from a consistent start (q0, v0) at t0 to t_end, for the
