@@ -140,6 +140,48 @@ def verdicts(rows) -> dict:
             "exponent_verdict": verdict(expo, TARGET_EXPONENT, lo in wall and hi in wall)}
 
 
+def report(rows, sets: dict) -> dict:
+    """Fitted exponents, the target verdicts (printed, scaling_exponents.json) and the figure
+    (scaling.png); returns the verdicts."""
+    n = np.array([r["n_bodies"] for r in rows], float)
+    big = n >= 20   # asymptotic range
+    fits = {key: slope(n[big], np.array([r[key] for r in rows])[big])
+            for key in ("wall_per_sim_s", "residual_ns", "jacobian_ns", "mass_matrix_ns", "chain_factor_ns",
+                        "chain_solve_ns", "block_factor_ns", "lapack_dense_factor_ns")}
+    print("fitted exponents (n >= 20): " + ", ".join(f"{k} ~ n^{v:.2f}" for k, v in fits.items()))
+    targets = verdicts(rows)
+    print(f"target n = {TARGET_N}: {targets['wall_per_sim_s_n200']:.3g} s per simulated s "
+          f"(<= {TARGET_WALL:g}): {targets['wall_verdict']}")
+    print(f"target exponent n = {FIT_RANGE[0]}..{FIT_RANGE[1]}: fit {targets['exponent_fit_20_200']:.2f}, "
+          f"two-point {targets['exponent_two_point_20_200']:.2f} (<= {TARGET_EXPONENT:g}): "
+          f"{targets['exponent_verdict']}")
+    (OUT / "scaling_exponents.json").write_text(json.dumps(
+        {"fits_n_ge_20": fits, "targets": targets, "deck_overrides": sets}, indent=2))
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(7.0, 6.5))
+    for key, label in (("wall_per_sim_s", "wall time per simulated second, default solver [s]"),
+                       ("residual_ns", "one GGL residual [ns]"), ("jacobian_ns", "one analytic Jacobian [ns]"),
+                       ("chain_factor_ns", "chain factorisation [ns]"), ("chain_solve_ns", "chain solve [ns]"),
+                       ("block_factor_ns", "block factorisation [ns]"),
+                       ("lapack_dense_factor_ns", "dense LU, LAPACK [ns]")):
+        ax.loglog(n, [r[key] for r in rows], "o-", label=f"{label}  (~n^{fits[key]:.2f})")
+    for key, style, label in (("wall_per_sim_s_block", "s--", "wall time per simulated second, block solver [s]"),
+                              ("wall_per_sim_s_dense", "^:", "wall time per simulated second, dense LU [s]")):
+        pts = [(r["n_bodies"], r[key]) for r in rows if np.isfinite(r[key])]
+        if pts:
+            ax.loglog(*zip(*pts), style, color="grey", label=label)
+    ax.set_xlabel("number of bodies n")
+    ax.set_ylabel("time: wall per simulated second [s], kernels [ns]")
+    ax.set_title("rotorcable scaling, closed chain (UH-60 part 2 cut into n bodies)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2)
+    fig.tight_layout()
+    fig.savefig(OUT / "scaling.png", dpi=120)
+    return targets
+
+
 def main(argv=None) -> int:
     from harness import add_set_option, parse_sets, set_args
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -152,12 +194,19 @@ def main(argv=None) -> int:
     ap.add_argument("--dense-max", type=int, default=120,
                     help="largest n also run with the dense linear solver (one run)")
     ap.add_argument("--child", type=int, help=argparse.SUPPRESS)
+    ap.add_argument("--replot", action="store_true",
+                    help="verdicts and figure again from results/scaling.csv, nothing measured")
     args = ap.parse_args(argv)
     sets = parse_sets(args.sets)
     if args.child:
         print(json.dumps(measure_one(args.child, args.repeat, args.child <= args.block_max,
                                      args.child <= args.dense_max, sets)))
         return 0
+    if args.replot:
+        with open(OUT / "scaling.csv", newline="") as fh:
+            rows = [{k: (float(v) if k != "n_bodies" else int(v)) for k, v in r.items()} for r in csv.DictReader(fh)]
+        targets = report(rows, sets)
+        return 1 if (args.strict and "MISS" in (targets["wall_verdict"], targets["exponent_verdict"])) else 0
     if sets:
         print("deck overrides: " + ", ".join(f"{k} = {v}" for k, v in sets.items()))
     rows = []
@@ -183,41 +232,7 @@ def main(argv=None) -> int:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
-    n = np.array([r["n_bodies"] for r in rows], float)
-    big = n >= 20   # asymptotic range
-    fits = {key: slope(n[big], np.array([r[key] for r in rows])[big])
-            for key in ("wall_per_sim_s", "residual_ns", "jacobian_ns", "mass_matrix_ns", "chain_factor_ns",
-                        "chain_solve_ns", "block_factor_ns", "lapack_dense_factor_ns")}
-    print("fitted exponents (n >= 20): " + ", ".join(f"{k} ~ n^{v:.2f}" for k, v in fits.items()))
-    targets = verdicts(rows)
-    print(f"target n = {TARGET_N}: {targets['wall_per_sim_s_n200']:.3g} s per simulated s "
-          f"(<= {TARGET_WALL:g}): {targets['wall_verdict']}")
-    print(f"target exponent n = {FIT_RANGE[0]}..{FIT_RANGE[1]}: fit {targets['exponent_fit_20_200']:.2f}, "
-          f"two-point {targets['exponent_two_point_20_200']:.2f} (<= {TARGET_EXPONENT:g}): "
-          f"{targets['exponent_verdict']}")
-    (OUT / "scaling_exponents.json").write_text(json.dumps(
-        {"fits_n_ge_20": fits, "targets": targets, "deck_overrides": sets}, indent=2))
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(6.5, 4.5))
-    for key, label in (("wall_per_sim_s", "wall time per simulated second, chain solver [s]"),
-                       ("residual_ns", "one GGL residual [ns]"), ("jacobian_ns", "one analytic Jacobian [ns]"),
-                       ("chain_factor_ns", "chain factorisation [ns]"), ("chain_solve_ns", "chain solve [ns]"),
-                       ("block_factor_ns", "block factorisation [ns]"),
-                       ("lapack_dense_factor_ns", "dense LU, LAPACK [ns]")):
-        ax.loglog(n, [r[key] for r in rows], "o-", label=f"{label}  (~n^{fits[key]:.2f})")
-    for key, style, label in (("wall_per_sim_s_block", "s--", "wall per simulated s, block solver (before)"),
-                              ("wall_per_sim_s_dense", "^:", "wall per simulated s, SUNDIALS dense LU")):
-        pts = [(r["n_bodies"], r[key]) for r in rows if np.isfinite(r[key])]
-        if pts:
-            ax.loglog(*zip(*pts), style, color="grey", label=label)
-    ax.set_xlabel("number of bodies n")
-    ax.set_title("rotorcable scaling, closed chain (UH-60 part 2 cut into n bodies)")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(OUT / "scaling.png", dpi=120)
+    targets = report(rows, sets)
     missed = "MISS" in (targets["wall_verdict"], targets["exponent_verdict"])
     return 1 if (args.strict and missed) else 0
 
