@@ -148,16 +148,32 @@ def decay_case(args, sets, rows, info) -> callable:
 
 
 def ratios(rows) -> dict:
+    """Exudyn / rotorcable CPU time to the error TARGET, per case.  Where Exudyn's finest setting
+    is still above the target (a 10-revolution run at n = 44 costs it over an hour per setting),
+    its time to the target is at least that setting's time (errors fall with the step), and the
+    ratio is reported as that lower bound ("ratio_is_lower_bound")."""
     out = {}
     for case in dict.fromkeys(r["case"] for r in rows):
-        t = {}
+        t, rs = {}, {}
         for m in ("rotorcable-IDA", "exudyn-genalpha"):
-            rs = [r for r in rows if r["case"] == case and r["method"] == m]
-            t[m] = time_to_target([r["cm_traj_error_m"] for r in rs], [r["cpu_s"] for r in rs], TARGET)
+            rs[m] = [r for r in rows if r["case"] == case and r["method"] == m and np.isfinite(float(r["cpu_s"]))]
+            t[m] = time_to_target([float(r["cm_traj_error_m"]) for r in rs[m]], [float(r["cpu_s"]) for r in rs[m]],
+                                  TARGET)
+        lower = False
+        if not np.isfinite(t["exudyn-genalpha"]) and rs["exudyn-genalpha"]:
+            t["exudyn-genalpha"] = max(float(r["cpu_s"]) for r in rs["exudyn-genalpha"])
+            lower = True
         ratio = t["exudyn-genalpha"] / t["rotorcable-IDA"]
         out[case] = {"rotorcable_cpu_s": t["rotorcable-IDA"], "exudyn_cpu_s": t["exudyn-genalpha"],
-                     "ratio": ratio, "target": TARGET_RATIO[case], "verdict": verdict(ratio, TARGET_RATIO[case])}
+                     "ratio": ratio, "ratio_is_lower_bound": lower, "target": TARGET_RATIO[case],
+                     "verdict": verdict(ratio, TARGET_RATIO[case])}
     return out
+
+
+def print_ratio(case: str, r: dict) -> None:
+    bound = "at least " if r["ratio_is_lower_bound"] else ""
+    print(f"{case}: CPU to {TARGET:g} m: rotorcable {r['rotorcable_cpu_s']:.4g} s, Exudyn {bound}"
+          f"{r['exudyn_cpu_s']:.4g} s, ratio {bound}{r['ratio']:.3g} (>= {r['target']:g}): {r['verdict']}")
 
 
 def main(argv=None) -> int:
@@ -171,8 +187,15 @@ def main(argv=None) -> int:
     ap.add_argument("--python-uf", action="store_true",
                     help="prescribed angles as Python user functions even if symbolic ones work")
     ap.add_argument("--strict", action="store_true", help="exit status 1 if a target is missed")
+    ap.add_argument("--ratios-from", type=Path, metavar="CSV",
+                    help="only the ratios and verdicts again, from a CSV this script wrote")
     add_set_option(ap)
     args = ap.parse_args(argv)
+    if args.ratios_from:
+        with open(args.ratios_from, newline="") as fh:
+            for case, r in ratios(list(csv.DictReader(fh))).items():
+                print_ratio(case, r)
+        return 0
     sets = parse_sets(args.sets)
     rows, info = [], {"deck_overrides": sets}
     # Every rotorcable run first, then the Exudyn runs: importing Exudyn slows the Fortran core
@@ -190,8 +213,7 @@ def main(argv=None) -> int:
     info["settings"] = {"n": args.n, "revolutions": args.revolutions, "repeat": args.repeat}
     (OUT / "flight_precision.json").write_text(json.dumps(info, indent=2) + "\n")
     for case, r in res.items():
-        print(f"{case}: CPU to {TARGET:g} m: rotorcable {r['rotorcable_cpu_s']:.4g} s, Exudyn "
-              f"{r['exudyn_cpu_s']:.4g} s, ratio {r['ratio']:.3g} (>= {r['target']:g}): {r['verdict']}")
+        print_ratio(case, r)
     missed = any(r["verdict"] != "PASS" for r in res.values())
     return 1 if (args.strict and missed) else 0
 
