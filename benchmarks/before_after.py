@@ -1,14 +1,17 @@
-"""Before/after figures of the integrator's linear algebra (issue 4, item 3).
+"""Before/after figures of the integrator's linear algebra (issues 4 and 14).
 
 The same integrations (harness.timed_run: the integration alone, no set-up, no outputs) with
 the solver options switched on one after the other, all in one run so that the ratios are
 comparable on a shared machine:
 
 1. ``before``: SUNDIALS's dense LU of the whole iteration matrix, SUNDIALS's own N_Vector
-   kernels (Debian builds them without optimisation), physics Jacobian formed at every setup;
+   kernels (Debian builds them without optimisation), physics Jacobian by finite differences
+   formed at every setup;
 2. ``+ compiled vector kernels`` (``&solver vector_kernels = 'compiled'``);
 3. ``+ block solver`` (``linear_solver = 'block'``, Schur complement, LAPACK);
-4. ``+ Jacobian kept`` (``jacobian_max_age = 50``): the default.
+4. ``+ Jacobian kept`` (``jacobian_max_age = 50``; the default of issue 4);
+5. ``+ analytic Jacobian`` (``jacobian = 'analytic'``, kept 100 steps);
+6. ``+ chain solver where long`` (``linear_solver = 'auto'``): today's defaults.
 
 Cases: the UH-60 part 2 decay (1 s, rtol 1e-8), the six-link swing (2 s,
 rtol 1e-8) and the UH-60 cable cut into 80 bodies (0.05 s, rtol 1e-6, as in scaling.py).
@@ -31,11 +34,16 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from harness import prepared, timed_run  # noqa: E402
 
+FD = {"jacobian": "finite_difference"}
 CONFIGS = [
-    ("before", {"linear_solver": "dense", "vector_kernels": "sundials", "jacobian_max_age": 1}),
-    ("+ compiled vector kernels", {"linear_solver": "dense", "vector_kernels": "compiled", "jacobian_max_age": 1}),
-    ("+ block solver", {"linear_solver": "block", "vector_kernels": "compiled", "jacobian_max_age": 1}),
-    ("+ Jacobian kept (default)", {"linear_solver": "block", "vector_kernels": "compiled", "jacobian_max_age": 50}),
+    ("before", {**FD, "linear_solver": "dense", "vector_kernels": "sundials", "jacobian_max_age": 1}),
+    ("+ compiled vector kernels", {**FD, "linear_solver": "dense", "vector_kernels": "compiled", "jacobian_max_age": 1}),
+    ("+ block solver", {**FD, "linear_solver": "block", "vector_kernels": "compiled", "jacobian_max_age": 1}),
+    ("+ Jacobian kept", {**FD, "linear_solver": "block", "vector_kernels": "compiled", "jacobian_max_age": 50}),
+    ("+ analytic Jacobian", {"jacobian": "analytic", "linear_solver": "block", "vector_kernels": "compiled",
+                             "jacobian_max_age": 100}),
+    ("+ chain solver where long (default)", {"jacobian": "analytic", "linear_solver": "auto",
+                                              "vector_kernels": "compiled", "jacobian_max_age": 100}),
 ]
 
 

@@ -8,6 +8,7 @@ import numpy as np
 
 import pydriver
 from pydriver.analyses.dynamics import start_state
+from pydriver.model import resolve_linear_solver
 
 METHODS = {"rotorcable-IDA": 1, "gsl-rk8pd": 2, "gsl-msbdf": 3}
 
@@ -29,6 +30,7 @@ def timed_run(model, q0, v0, t_end: float, method: str = "rotorcable-IDA", rtol:
     """One timed integration; raises NoWorkDone unless it took steps and ended finite."""
     settings = model.solver_settings()
     settings.update(rtol=rtol, atol=rtol * 1e-2 if atol is None else atol, **solver)
+    settings["linear_solver"] = resolve_linear_solver(settings["linear_solver"], model.nq)
     out = model.core.integrate_timed(METHODS[method], settings, 0.0, t_end, q0, v0, samples, baumgarte)
     if out["stats"]["steps"] <= 0 or not np.all(np.isfinite(out["cm_samples"])):
         raise NoWorkDone(f"{model.name}, {method}, rtol {rtol:g}: {out['stats']['steps']} steps; no work done")

@@ -17,6 +17,19 @@ from pydriver.deckfile import Deck, read_deck
 AUTO_CHAIN_MIN_COORDS = 32
 
 
+def resolve_linear_solver(choice: str, n_coords: int) -> str:
+    """The IDA linear solver for ``&solver linear_solver = choice`` on a model of ``n_coords``
+    coordinates: ``'auto'`` is the block solver below ``AUTO_CHAIN_MIN_COORDS`` and the O(n) chain
+    solver from there on; any other choice is kept.  Measured (docs/jacobian.md): on small
+    chains the block solver's exact matrix saves steps at loose tolerances (UH-60 decay, nq =
+    20, rtol 1e-3: 10-17 against 24 ms), from about 30 coordinates the chain solver is faster at
+    every tolerance (nq = 38: 8 against 13 ms at rtol 1e-3, 29 against 43 ms at 1e-6; n = 200:
+    1.4 against 27 s per simulated second)."""
+    if choice != "auto":
+        return choice
+    return "chain" if n_coords >= AUTO_CHAIN_MIN_COORDS else "block"
+
+
 class Model:
     """The validated deck and its model in the core.
 
@@ -80,16 +93,8 @@ class Model:
         return self.core.nc
 
     def linear_solver(self) -> str:
-        """The IDA linear solver a run uses: the deck's, or for ``'auto'`` the block solver below
-        ``AUTO_CHAIN_MIN_COORDS`` coordinates and the O(n) chain solver from there on.  Measured
-        (docs/jacobian.md): on small chains the block solver's exact matrix saves steps at loose
-        tolerances (UH-60 decay, nq = 20, rtol 1e-3: 10-17 against 24 ms), from about 30
-        coordinates the chain solver is faster at every tolerance (nq = 38: 8 against 13 ms at
-        rtol 1e-3, 29 against 43 ms at 1e-6; n = 200: 1.4 against 27 s per simulated second)."""
-        chosen = self.deck.values["solver"]["linear_solver"]
-        if chosen == "auto":
-            chosen = "chain" if self.nq >= AUTO_CHAIN_MIN_COORDS else "block"
-        return chosen
+        """The IDA linear solver a run uses (:func:`resolve_linear_solver` of the deck's)."""
+        return resolve_linear_solver(self.deck.values["solver"]["linear_solver"], self.nq)
 
     def solver_settings(self) -> dict:
         """The &solver values the integrator needs ('auto' resolved: :meth:`linear_solver`)."""
