@@ -37,7 +37,7 @@
 !> Elimination as in rotorcable_ggl_linear_solver with Kq = C, Cq = 0:
 !>   K = cj M + D + C/cj = cj (M + A),  A = (D + C/cj)/cj: an articulated-body
 !>   factorisation with armature A (rotorcable_articulated_body), O(n), no matrix formed;
-!>   K^-1 B, B = [G^T, C G^T/cj], by 2 nc solves of O(n); S = [G; G] K^-1 B - [0, G G^T; 0, 0]
+!>   K^-1 B, B = [G^T, C G^T/cj], in one blocked pass of O(n nc); S = [G; G] K^-1 B - [0, G G^T; 0, 0]
 !>   (2 nc x 2 nc, LAPACK LU).  Setup O(n nc), solve O(n nc).
 module rotorcable_chain_linear_solver
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_ptr, c_long, c_null_ptr, c_funloc, c_loc, &
