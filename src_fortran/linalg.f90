@@ -4,7 +4,7 @@ module rotorcable_linalg
   use rotorcable_fpe_guard, only: fpe_pause, fpe_resume
   implicit none
   private
-  public :: solve_dense, solve_least_norm, null_space, solve_spd, singular_values, all_finite
+  public :: solve_dense, solve_least_norm, null_space, solve_spd, singular_values, thin_svd, all_finite
   public :: dgetrf, dgetrs, dgemv, dgemm   ! factors kept across solves, products (linear solvers)
   public :: lu_solve
 
@@ -177,6 +177,32 @@ contains
     call dgesv(n, 1, a, n, ipiv, b, n, info)
     call fpe_resume(halting)
   end subroutine solve_dense
+
+  !> Thin singular value decomposition A = U diag(s) V^T of an (m,n) matrix (LAPACK dgesvd):
+  !> U (m,k), s (k) descending, V^T (k,n), k = min(m,n).
+  subroutine thin_svd(a, u, s, vt, info)
+    real(dp), intent(in) :: a(:, :)           !< (m,n) matrix
+    real(dp), intent(out) :: u(:, :)          !< (m,k) left singular vectors
+    real(dp), intent(out) :: s(:)             !< (k) singular values
+    real(dp), intent(out) :: vt(:, :)         !< (k,n) right singular vectors, transposed
+    integer, intent(out) :: info              !< LAPACK status (0 = ok)
+    real(dp), allocatable :: aw(:, :), work(:)
+    real(dp) :: wq(1)
+    integer :: m, n, k
+    logical :: halting(3)
+    m = size(a, 1); n = size(a, 2); k = min(m, n)
+    u = 0.0_dp; s = 0.0_dp; vt = 0.0_dp
+    if (.not. all_finite(a)) then
+      info = INFO_NOT_FINITE
+      return
+    end if
+    aw = a
+    call fpe_pause(halting)
+    call dgesvd('S', 'S', m, n, aw, m, s, u, m, vt, k, wq, -1, info)
+    allocate (work(int(wq(1))))
+    call dgesvd('S', 'S', m, n, aw, m, s, u, m, vt, k, work, size(work), info)
+    call fpe_resume(halting)
+  end subroutine thin_svd
 
   !> Minimum-norm least-squares solution of A x = b (LAPACK dgelsd), A of shape (m,n).
   subroutine solve_least_norm(a, b, x, info)

@@ -4,7 +4,7 @@ module rotorcable_projection
   use rotorcable_kinds, only: dp
   use rotorcable_model, only: model_type, positions_at, constraint_residual, constraint_jacobian, &
                               constraint_velocity
-  use rotorcable_linalg, only: solve_least_norm, singular_values
+  use rotorcable_linalg, only: solve_least_norm, singular_values, thin_svd
   use rotorcable_supports_clamp, only: clamp_support
   implicit none
   private
@@ -14,8 +14,8 @@ contains
 
   !> Project q onto g(q, t) = 0: the smallest change of the deck's shape that closes the chain.
   !> Levenberg-Marquardt on the support's closure residual (for the clamp: tip - p_B and
-  !> (E - I) l_s, which has no spurious half-turn roots), with minimum-norm steps (LAPACK dgelsd
-  !> on [J; sqrt(mu) I]).  If the direct closure stalls (a far start), the support's target is
+  !> (E - I) l_s, which has no spurious half-turn roots), with minimum-norm steps (the thin SVD of J,
+  !> close_chain).  If the direct closure stalls (a far start), the support's target is
   !> approached by continuation from the start shape's own tip pose in 8, 32 or 128 steps
   !> (position linearly, orientation along the geodesic) and every step is closed from the
   !> previous one.  Returns the final max |g|.
@@ -55,17 +55,23 @@ contains
   end function project_positions
 
   !> Levenberg-Marquardt closure onto the support's current target (see project_positions).
+  !> The damped step, the minimum-norm solution of [J; sqrt(mu) I] dq = [-r; 0], is
+  !> dq = -V diag(s / (s^2 + mu)) U^T r from the thin SVD J = U diag(s) V^T of the m x nq
+  !> closure Jacobian (m = 12 rows), singular values below eps s_max dropped (as dgelsd's
+  !> rcond): O(m^2 nq) once per iteration and O(m nq) per trial mu, where a least-squares solve
+  !> of the stacked (m + nq) x nq system was O(nq^3) (57 % of the 200-body equilibrium).
   function close_chain(model, t, q) result(gmax)
     type(model_type), intent(inout) :: model
     real(dp), intent(in) :: t
     real(dp), intent(inout) :: q(:)
     real(dp) :: gmax
-    real(dp), allocatable :: r(:), r_try(:), r_jac(:, :), a(:, :), b(:), w(:)
+    real(dp), allocatable :: r(:), r_try(:), r_jac(:, :), w(:), u(:, :), s(:), vt(:, :), c(:)
     real(dp) :: dq(model%nq), q_try(model%nq), mu, g(max(model%nc, 1)), l_s
-    integer :: it, info, i, nq, m
+    integer :: it, info, i, nq, m, k
     nq = model%nq
     m = model%tip%closure_rows()
-    allocate (r(m), r_try(m), r_jac(m, nq), a(m + nq, nq), b(m + nq), w(m))
+    k = min(m, nq)
+    allocate (r(m), r_try(m), r_jac(m, nq), w(m), u(m, k), s(k), vt(k, nq), c(k))
     ! Orientation rows weighted by a length so that metres and radians balance.
     l_s = 0.25_dp*sum(model%chain%length)
     w = l_s
@@ -81,15 +87,18 @@ contains
       do i = 1, nq
         r_jac(:, i) = w*r_jac(:, i)
       end do
+      call thin_svd(r_jac, u, s, vt, info)
+      if (info /= 0) exit
       do
-        a = 0.0_dp
-        a(1:m, :) = r_jac
-        do i = 1, nq
-          a(m + i, i) = sqrt(mu)
+        c = matmul(r, u)
+        do i = 1, k
+          if (s(i) > epsilon(1.0_dp)*s(1)) then
+            c(i) = -c(i)*s(i)/(s(i)**2 + mu)
+          else
+            c(i) = 0.0_dp
+          end if
         end do
-        b = 0.0_dp
-        b(1:m) = -r
-        call solve_least_norm(a, b, dq, info)
+        dq = matmul(c, vt)
         q_try = q + dq
         call closure(q_try, r_try)
         if (norm2(r_try) < norm2(r) .or. mu > 1.0e8_dp) exit

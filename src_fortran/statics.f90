@@ -3,7 +3,8 @@
 module rotorcable_statics
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error
-  use rotorcable_model, only: model_type, eom_residual, constraint_residual, constraint_jacobian, total_energy, &
+  use rotorcable_model, only: model_type, eom_residual, eom_residual_tangent, constraint_residual, &
+                              constraint_jacobian, total_energy, &
                               all_conservative
   use rotorcable_projection, only: project_positions, constraint_rank_margin, rank_loss_message
   use rotorcable_linalg, only: solve_least_norm, null_space, solve_spd, solve_dense
@@ -68,8 +69,8 @@ contains
   end subroutine rest_forces
 
   !> Tangent stiffness K = d(-k(q,0) - G^T lambda)/dq at fixed lambda (includes the
-  !> curvature of the constraints weighted by lambda), by central differences of the O(n)
-  !> residual: truncation ~h^2 ~ 1e-12 relative, 2 nq evaluations.
+  !> curvature of the constraints weighted by lambda): the analytic tangent of the O(n)
+  !> residual at rest, one sweep per coordinate (rest_tangent).
   subroutine tangent_stiffness(model, t, q, lambda, k_tan, n_eval)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t                 !< time [s]
@@ -77,41 +78,54 @@ contains
     real(dp), intent(in) :: lambda(:)         !< multipliers
     real(dp), intent(out) :: k_tan(:, :)      !< (nq,nq) [Nm/rad]
     integer, intent(inout) :: n_eval          !< residual evaluation counter
-    real(dp) :: q_try(size(q)), fp(size(q)), fm(size(q)), h
-    integer :: i
-    do i = 1, size(q)
-      h = 1.0e-6_dp*max(1.0_dp, abs(q(i)))
-      q_try = q; q_try(i) = q(i) + h
-      call rest_forces(model, t, q_try, lambda, fp, n_eval)
-      q_try(i) = q(i) - h
-      call rest_forces(model, t, q_try, lambda, fm, n_eval)
-      k_tan(:, i) = (fp - fm)/(2.0_dp*h)
-    end do
+    call rest_tangent(model, t, q, lambda, .false., k_tan)
+    n_eval = n_eval + 1
   end subroutine tangent_stiffness
 
-  !> Damping matrix D = d(-k)/dqdot at rest relative to the model frame, by central
-  !> differences in the rates: the joint dampers and drag, and in a turning frame the
-  !> gyroscopic (Coriolis) terms, which make D unsymmetric.
+  !> Linear damping matrix D = dF/dv at v = 0 (joint dampers, Coriolis and gyroscopic terms of a
+  !> turning frame, drag): the analytic tangent of the residual at rest (rest_tangent).
   subroutine damping_matrix(model, t, q, lambda, d_mat)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t                 !< time [s]
     real(dp), intent(in) :: q(:)              !< coordinates [rad]
     real(dp), intent(in) :: lambda(:)         !< multipliers
     real(dp), intent(out) :: d_mat(:, :)      !< (nq,nq) [Nms/rad]
-    real(dp) :: v(size(q)), zero(size(q)), fp(size(q)), fm(size(q)), lam(max(model%nc, 1)), h
-    integer :: i
+    call rest_tangent(model, t, q, lambda, .true., d_mat)
+  end subroutine damping_matrix
+
+  !> Columns of d(residual at rest)/dq (rates = .false.) or d/dv (rates = .true.) at v = vdot = 0
+  !> and fixed lambda: one O(n) tangent sweep per coordinate (eom_residual_tangent; the sweeps
+  !> and their tests: docs/jacobian.md), exact, where central differences cost two residuals per
+  !> column and carried ~1e-10 of truncation and round-off.
+  subroutine rest_tangent(model, t, q, lambda, rates, mat)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: q(:)              !< coordinates [rad]
+    real(dp), intent(in) :: lambda(:)         !< multipliers
+    logical, intent(in) :: rates              !< derivative with respect to the rates
+    real(dp), intent(out) :: mat(:, :)        !< (nq,nq)
+    real(dp) :: zero(size(q)), dq(size(q)), dv(size(q)), f(size(q)), lam(max(model%nc, 1)), dlam(max(model%nc, 1))
+    integer :: j, k
     zero = 0.0_dp
     lam = 0.0_dp
     lam(1:model%nc) = lambda
-    h = 1.0e-6_dp
-    do i = 1, size(q)
-      v = 0.0_dp; v(i) = h
-      call eom_residual(model, t, q, v, zero, lam, fp)
-      v(i) = -h
-      call eom_residual(model, t, q, v, zero, lam, fm)
-      d_mat(:, i) = (fp - fm)/(2.0_dp*h)
+    dlam = 0.0_dp
+    call eom_residual(model, t, q, zero, zero, lam, f)       ! the state the sweeps start from
+    dq = 0.0_dp
+    dv = 0.0_dp
+    do j = 1, model%chain%n_bodies
+      do k = model%chain%first_coord(j), model%chain%first_coord(j) + model%chain%n_joint_coords(j) - 1
+        if (rates) then
+          dv(k) = 1.0_dp
+        else
+          dq(k) = 1.0_dp
+        end if
+        call eom_residual_tangent(model, t, q, zero, zero, lam, dq, dv, zero, dlam, j, mat(:, k))
+        dq(k) = 0.0_dp
+        dv(k) = 0.0_dp
+      end do
     end do
-  end subroutine damping_matrix
+  end subroutine rest_tangent
 
   !> Multipliers by least squares (G^T lambda = f0), the equilibrium residual f0 - G^T lambda,
   !> the null-space basis of G and the reduced gradient N^T f0.
@@ -141,8 +155,8 @@ contains
   !>    back onto g = 0, accept if the potential energy (gravity, rotor field, springs)
   !>    decreases (Armijo) or the reduced gradient halves; with a non-conservative load
   !>    (drag), K unsymmetric and accept if the reduced gradient decreases.  K = d(f0 - G^T lambda)/dq at fixed
-  !>    lambda is the tangent stiffness including the constraint curvature (central
-  !>    differences of the O(n) residual).  mu -> 0 near the solution: quadratic convergence;
+  !>    lambda is the tangent stiffness including the constraint curvature (the
+  !>    analytic tangent of the O(n) residual, rest_tangent).  mu -> 0 near the solution: quadratic convergence;
   !>    mu > 0 far from it or where N^T K N is indefinite: a descent step, so the iteration
   !>    settles into a stable equilibrium like the thesis's damped settling does.
   !> 3. lambda from G^T lambda = f0 (least squares; exact at equilibrium), eq. 3.50.
