@@ -139,22 +139,8 @@ contains
     real(dp), intent(in) :: a(:, :)           !< (m,n) matrix
     real(dp), intent(out) :: s(:)             !< (min(m,n)) singular values
     integer, intent(out) :: info              !< LAPACK status (0 = ok)
-    real(dp), allocatable :: aw(:, :), work(:)
-    real(dp) :: u(1, 1), vt(1, 1), wq(1)
-    integer :: m, n
-    logical :: halting(3)
-    m = size(a, 1); n = size(a, 2)
-    s = 0.0_dp
-    if (.not. all_finite(a)) then
-      info = INFO_NOT_FINITE
-      return
-    end if
-    aw = a
-    call fpe_pause(halting)
-    call dgesvd('N', 'N', m, n, aw, m, s, u, 1, vt, 1, wq, -1, info)
-    allocate (work(int(wq(1))))
-    call dgesvd('N', 'N', m, n, aw, m, s, u, 1, vt, 1, work, size(work), info)
-    call fpe_resume(halting)
+    real(dp) :: u(1, 1), vt(1, 1)
+    call svd_lapack('N', a, u, s, vt, info)
   end subroutine singular_values
 
   !> Solve A x = b in place (LU with partial pivoting, LAPACK dgesv); info /= 0 if singular.
@@ -186,11 +172,19 @@ contains
     real(dp), intent(out) :: s(:)             !< (k) singular values
     real(dp), intent(out) :: vt(:, :)         !< (k,n) right singular vectors, transposed
     integer, intent(out) :: info              !< LAPACK status (0 = ok)
+    call svd_lapack('S', a, u, s, vt, info)
+  end subroutine thin_svd
+
+  !> dgesvd with job 'N' (values only; u, vt are 1 x 1 placeholders) or 'S' (thin vectors), its
+  !> workspace query, the finiteness guard and the trap pause shared by both callers.
+  subroutine svd_lapack(job, a, u, s, vt, info)
+    character, intent(in) :: job
+    real(dp), intent(in) :: a(:, :)
+    real(dp), intent(out) :: u(:, :), s(:), vt(:, :)
+    integer, intent(out) :: info
     real(dp), allocatable :: aw(:, :), work(:)
     real(dp) :: wq(1)
-    integer :: m, n, k
     logical :: halting(3)
-    m = size(a, 1); n = size(a, 2); k = min(m, n)
     u = 0.0_dp; s = 0.0_dp; vt = 0.0_dp
     if (.not. all_finite(a)) then
       info = INFO_NOT_FINITE
@@ -198,11 +192,13 @@ contains
     end if
     aw = a
     call fpe_pause(halting)
-    call dgesvd('S', 'S', m, n, aw, m, s, u, m, vt, k, wq, -1, info)
+    call dgesvd(job, job, size(a, 1), size(a, 2), aw, size(a, 1), s, u, size(u, 1), vt, size(vt, 1), &
+                wq, -1, info)
     allocate (work(int(wq(1))))
-    call dgesvd('S', 'S', m, n, aw, m, s, u, m, vt, k, work, size(work), info)
+    call dgesvd(job, job, size(a, 1), size(a, 2), aw, size(a, 1), s, u, size(u, 1), vt, size(vt, 1), &
+                work, size(work), info)
     call fpe_resume(halting)
-  end subroutine thin_svd
+  end subroutine svd_lapack
 
   !> Minimum-norm least-squares solution of A x = b (LAPACK dgelsd), A of shape (m,n).
   subroutine solve_least_norm(a, b, x, info)
