@@ -20,7 +20,8 @@ decay, n = 11, 1 s, the same measures against rotorcable at rtol 1e-12
 Reported: CPU time to reach ``TARGET`` = 1e-6 m (log-log interpolation, work_precision.
 time_to_target) and the ratio Exudyn / rotorcable at equal error; targets >= 30x (flight) and
 >= 80x (decay), PASS/MISS.  Every run is checked for work done (steps > 0, finite answer).
-Writes benchmarks/results/flight_precision.csv and flight_precision.json.
+Writes benchmarks/results/flight_precision.csv and .json (flight_precision_flight.* or
+flight_precision_decay.* when one case runs alone).
 
 Run:  .venv/bin/python benchmarks/flight_precision.py                 (n = 44, 10 rev: hours,
       Exudyn's Python drag dominates; see README)
@@ -209,14 +210,17 @@ def main(argv=None) -> int:
     for peer in peers:
         peer()
     OUT.mkdir(parents=True, exist_ok=True)
-    with open(OUT / "flight_precision.csv", "w", newline="") as fh:
+    # One case alone gets its own files, so a decay-only run does not overwrite a flight run
+    # that took hours (and the other way round).
+    stem = "flight_precision" + ("" if len(set(args.cases)) == 2 else "_" + args.cases[0])
+    with open(OUT / f"{stem}.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
     res = ratios(rows)
     info["ratios"] = res
     info["settings"] = {"n": args.n, "revolutions": args.revolutions, "repeat": args.repeat}
-    (OUT / "flight_precision.json").write_text(json.dumps(info, indent=2) + "\n")
+    (OUT / f"{stem}.json").write_text(json.dumps(info, indent=2) + "\n")
     for case, r in res.items():
         print_ratio(case, r)
     missed = any(r["verdict"] != "PASS" for r in res.values())
