@@ -23,6 +23,15 @@
 !> K is not symmetric (damping, gyroscopic and geometric-stiffness terms), hence LU (LAPACK
 !> dgetrf/dgetrs) rather than Cholesky.  Hand-written only in the block elimination above,
 !> which no library offers for this matrix; every factorisation is LAPACK's.
+!>
+!> Very short steps: the elimination divides by cj and multiplies the g rows by cj, and the v
+!> and lambda parts of its solution lose digits as cj grows (UH-60 decay, random right-hand
+!> sides, largest error of each block against LAPACK's LU of the whole matrix: 3e-9 at
+!> cj = 1e6/s, 2e-7 at 1e8, 4e-4 at 1e12, 15 % at 1e14).  Such steps occur only right after a
+!> start or a switch time at a tight atol (IDA's first step there is ~0.5/||y'||_WRMS, 5e-15 s at
+!> atol 1e-12), where IDA's Newton iteration then failed down to hmin.  Above CJ_DENSE the
+!> solver therefore factorises the whole matrix (dgetrf) instead: a handful of factorisations
+!> per start, each of the cost of a few steps.
 module rotorcable_ggl_linear_solver
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_ptr, c_null_ptr, c_funloc, c_loc, &
                                          c_f_pointer, c_associated
@@ -36,6 +45,8 @@ module rotorcable_ggl_linear_solver
   public :: ggl_block_solver, block_solver_create, block_solver_destroy, block_factorise, block_solve
 
   integer(c_int), parameter :: SUNLINEARSOLVER_CUSTOM = 17  !< SUNLinearSolver_ID
+  !> cj [1/s] above which the whole matrix is factorised (module header: steps below ~1 us).
+  real(dp), parameter :: CJ_DENSE = 1.0e6_dp
 
   !> Factors and blocks kept from one setup to the solves that follow.
   type :: ggl_block_solver
@@ -51,6 +62,9 @@ module rotorcable_ggl_linear_solver
     real(dp), allocatable :: kinv_b(:, :)     !< K^-1 B (nq x 2 nc)
     real(dp), allocatable :: s(:, :)          !< LU factors of S (2 nc x 2 nc)
     integer, allocatable :: s_pivots(:)
+    logical :: whole = .false.                !< the current factors are those of the whole matrix
+    real(dp), allocatable :: lu(:, :)         !< LU factors of the whole matrix (cj > CJ_DENSE)
+    integer, allocatable :: lu_pivots(:)
     type(c_ptr) :: handle = c_null_ptr        !< the SUNLinearSolver wrapping this object
   end type ggl_block_solver
 
@@ -94,9 +108,17 @@ contains
     type(ggl_block_solver), intent(inout) :: self  !< solver object
     real(dp), intent(in) :: jac(:, :)         !< iteration matrix (as from ggl_jacobian_dense)
     integer, intent(out) :: info              !< 0, or > 0 if K or S is singular
-    integer :: nq, nc
+    integer :: nq, nc, n
     real(dp) :: cj
     nq = self%nq; nc = self%nc; cj = self%cj
+    self%whole = cj > CJ_DENSE
+    if (self%whole) then
+      n = 2*nq + 2*nc
+      if (.not. allocated(self%lu)) allocate (self%lu(n, n), self%lu_pivots(n))
+      self%lu = jac
+      call dgetrf(n, n, self%lu, n, self%lu_pivots, info)
+      return
+    end if
     self%kq = jac(nq + 1:2*nq, 1:nq)
     self%k = jac(nq + 1:2*nq, nq + 1:2*nq) + self%kq/cj
     self%b1_rows(1:nq, :) = self%kq/cj
@@ -118,7 +140,8 @@ contains
   end subroutine block_factorise
 
   !> Solve J x = b with the factors of block_factorise (x may not alias b): four
-  !> matrix-vector products (BLAS dgemv) and two LU solves.
+  !> matrix-vector products (BLAS dgemv) and two LU solves (one LU solve of the whole matrix
+  !> above CJ_DENSE).
   subroutine block_solve(self, b, x)
     type(ggl_block_solver), intent(in) :: self  !< factorised solver
     real(dp), intent(in) :: b(:)              !< right-hand side (b1, b2, b3, b4)
@@ -126,6 +149,11 @@ contains
     real(dp) :: t(self%nq + 2*self%nc), w(self%nq), z(2*self%nc), cj
     integer :: nq, nc, m
     nq = self%nq; nc = self%nc; cj = self%cj; m = nq + 2*nc
+    if (self%whole) then
+      x = b
+      call lu_solve(size(b), self%lu, self%lu_pivots, x)
+      return
+    end if
     call dgemv('N', m, nq, 1.0_dp, self%b1_rows, m, b, 1, 0.0_dp, t, 1)   ! [Kq/cj; G; Cq/cj] b1
     w = b(nq + 1:2*nq) - t(1:nq)                                           ! r2
     call lu_solve(nq, self%k, self%k_pivots, w)                            ! K^-1 r2
