@@ -88,11 +88,7 @@ def fortran_run(deck: Path, method: str, rtol: float, atol: float | None = None)
 
 
 def median_run(fn, repeat: int) -> dict:
-    return median_of([fn() for _ in range(repeat)])
-
-
-def median_of(runs: list) -> dict:
-    """The first run with the median CPU time of all (the runs are of one setting)."""
+    runs = [fn() for _ in range(repeat)]
     best = runs[0]
     if best["status"] == "ok":
         best = dict(best)
