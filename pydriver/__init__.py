@@ -22,7 +22,7 @@ import os as _os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):
     _os.environ.setdefault(_var, "1")
 
-from pydriver.errors import DeckError, RunError
+from pydriver.errors import DeckError, OutputError, RunError
 from pydriver.model import Model
 from pydriver.result import Result
 from pydriver.run import deck_info, evaluate_model, run_deck, shape
@@ -30,5 +30,5 @@ from pydriver.results import load_results
 from pydriver.scene import Scene, scene
 from pydriver.sweep import SweepError, run_sweep
 
-__all__ = ["DeckError", "RunError", "Result", "Model", "deck_info", "run_deck", "evaluate_model", "shape",
+__all__ = ["DeckError", "OutputError", "RunError", "Result", "Model", "deck_info", "run_deck", "evaluate_model", "shape",
            "Scene", "scene", "load_results", "run_sweep", "SweepError"]

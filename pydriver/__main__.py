@@ -10,8 +10,35 @@ import json
 import sys
 from pathlib import Path
 
-from pydriver.errors import DeckError, RunError
+from pydriver.errors import DeckError, OutputError, RunError
 from pydriver.run import run_deck
+
+
+def _exit_on_termination():
+    """SIGTERM and SIGHUP end the command like Ctrl-C: as an exception, so that a run's
+    temporary directory is removed on the way out (the default action ends the process at
+    once and left 10 MB of partial time series behind, issue 20)."""
+    import signal
+
+    def terminate(signum, frame):
+        raise SystemExit(128 + signum)
+
+    for sig in (signal.SIGTERM, getattr(signal, "SIGHUP", None)):
+        if sig is not None:
+            signal.signal(sig, terminate)
+
+
+def _default_outputs(decks: list[str]) -> dict:
+    """``results/<deck stem>`` for each deck; two decks with one stem are refused before
+    anything runs (the second would replace the first's results silently)."""
+    outs: dict[Path, str] = {}
+    for deck in decks:
+        out = Path("results") / Path(deck).stem
+        if out in outs and Path(outs[out]).resolve() != Path(deck).resolve():
+            raise SystemExit(f"error: decks '{outs[out]}' and '{deck}' would both write {out}/: "
+                             "run them one at a time, each with its own --out")
+        outs.setdefault(out, deck)
+    return {deck: out for out, deck in outs.items()}
 
 
 def main(argv=None) -> int:
@@ -42,9 +69,10 @@ def main(argv=None) -> int:
         return 0
     if args.out and len(args.decks) > 1:
         parser.error("--out takes one deck")
+    _exit_on_termination()
+    decks = {args.decks[0]: Path(args.out)} if args.out else _default_outputs(args.decks)
     status = 0
-    for deck in args.decks:
-        out = Path(args.out) if args.out else Path("results") / Path(deck).stem
+    for deck, out in decks.items():
         try:
             target = deck
             if args.refine:
@@ -53,6 +81,10 @@ def main(argv=None) -> int:
             res = run_deck(target, out=out, plots=args.plots, report=args.report)
         except (DeckError, RunError) as exc:
             print(f"error: {exc}", file=sys.stderr)
+            status = 1
+            continue
+        except OutputError as exc:           # an output directory a run must not replace
+            print(f"error: deck '{Path(deck).name}': {exc}", file=sys.stderr)
             status = 1
             continue
         except OSError as exc:               # an output directory that cannot be written

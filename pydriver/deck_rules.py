@@ -16,6 +16,15 @@ from pydriver.deckfile import Deck
 #: Largest number of output samples of one run.  At one sample per 1e-4 s this is a week of
 #: simulated time; beyond it the request is a typo (dt_out = 1e-10) or a runaway t_end.
 MAX_SAMPLES = 50_000_000
+#: Largest number of time-series values a run holds in memory at once (samples x columns):
+#: 2.5e8 float64 values are 2 GB, what a workstation can spare for one run.
+MEMORY_BUDGET_VALUES = 250_000_000
+
+
+def columns_per_sample(n_bodies: int) -> int:
+    """Time-series columns of a chain of n bodies, an upper estimate: 186 were measured at
+    n = 11 with xyz joints (coordinates, rates, reactions, loads and curvatures per joint)."""
+    return 20 * n_bodies + 40
 
 
 def check(deck: Deck) -> None:
@@ -31,6 +40,7 @@ def check(deck: Deck) -> None:
     _output_times(deck)
     _fatigue(deck)
     _refinement(deck)
+    _memory_budget(deck)
 
 
 def _one_of(deck: Deck, keys: list[str], what: str):
@@ -194,6 +204,24 @@ def _output_times(deck: Deck):
                                       "choose a larger dt_out")
 
 
+def _memory_budget(deck: Deck):
+    """Refuse a run whose time series in memory would exceed MEMORY_BUDGET_VALUES, before any
+    allocation (issue 20: samples_per_rev = 3e9 tried to allocate 22 GiB)."""
+    analysis = deck["case.analysis"]
+    n = deck.n_bodies * 2 ** (deck["refinement.levels"] - 1)      # the finest refinement level
+    if analysis == "flight":
+        samples, key = deck["solver.samples_per_rev"] + 1, "samples_per_rev"
+    elif analysis == "dynamic" and "fatigue" in deck.groups:     # rainflow needs the whole history
+        samples, key = deck["solver.t_end"] / deck["solver.dt_out"] + 1, "dt_out"
+    else:
+        return
+    values = samples * columns_per_sample(n)
+    if values > MEMORY_BUDGET_VALUES:
+        deck.fail("solver", key, f"{samples:.3g} samples x {columns_per_sample(n)} columns "
+                                 f"(n = {n} bodies) = {values:.3g} values in memory, more than the "
+                                 f"budget of {MEMORY_BUDGET_VALUES:.3g} (2 GB); fewer samples or bodies")
+
+
 def _fatigue(deck: Deck):
     if "fatigue" not in deck.groups:
         return
@@ -207,8 +235,7 @@ def _refinement(deck: Deck):
     if deck["refinement.levels"] == 1:
         return
     if "cable" not in deck.groups:
-        deck.fail("refinement", "levels", "refining n needs the physical cable parameters (&cable "
-                                          "bending_stiffness, ...), not the thesis's per-joint constants")
+        deck.fail("refinement", "levels", "refining n needs the physical cable parameters (&cable ei, ...), not the thesis's per-joint constants")
     if deck["case.analysis"] == "campbell":
         deck.fail("refinement", "levels", "a Campbell diagram is not refined (refine its modal runs instead)")
     if deck.has("chain.body_length"):

@@ -19,6 +19,7 @@ from pathlib import Path
 import f90nml
 import numpy as np
 
+from pydriver.deck_tokens import check_tokens
 from pydriver.errors import DeckError
 from pydriver.schema import GROUPS, REQUIRED_GROUPS, Key, lookup
 
@@ -37,6 +38,8 @@ _NUMBER_RUN = re.compile(r"=([ \t\r\n]*)([0-9eEdD.+\-,\s]{2048,})")
 _NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eEdD][-+]?\d+)?")
 _NEXT = re.compile(r"[ \t\r\n,]*(?:/|&|[A-Za-z_]\w*[ \t\r\n]*(?:\(|=))")
 _SENTINEL = -7_316_502_489_151
+#: The core's integers are 32-bit (f2py ``integer``): a larger deck integer cannot reach it.
+INT32_MAX = 2**31 - 1
 
 
 @dataclass
@@ -71,6 +74,7 @@ class Deck:
         value texts), validated like a deck read from a file."""
         raw = {g: dict(v) for g, v in self.raw.items()}
         starts = {g: dict(v) for g, v in self.starts.items()}
+        n_new = changes.get("chain.n_bodies", self.n_bodies)
         for dotted, value in changes.items():
             group, _, name = dotted.lower().partition(".")
             key = lookup(group, name)
@@ -83,6 +87,11 @@ class Deck:
                 value = value.tolist()
             elif isinstance(value, tuple):
                 value = list(value)
+            elif key.shape in ("body", "joint") and isinstance(value, (int, float)) \
+                    and not isinstance(value, bool):
+                # A Python number on a per-body key sets every body (numpy's broadcast); only
+                # deck text follows Fortran's element-1 reading (see normalize).
+                value = [value] * int(n_new)
             raw.setdefault(group, {})[name] = value
             starts.get(group, {}).pop(name, None)
         deck = validate(raw, starts, self.name)
@@ -150,6 +159,7 @@ def parse_namelist(text: str, deck: str):
     f90nml's warnings (a value it would drop, e.g. ``a(3) = 1, 2``) are errors here, and what
     it prints on malformed input is captured, never shown.
     """
+    check_tokens(text, deck)
     sink = io.StringIO()
     tables: list[list[float]] = []
 
@@ -290,6 +300,13 @@ def normalize(key: Key, raw, start, n: int, deck: str):
         if items[0] is None:
             fail("has no value")
         value = _element(key, items[0], fail)
+        if not key.broadcast and length > 1 and value != 0:
+            # A Fortran namelist read sets element 1 only; broadcasting would run a different
+            # (coiled) cable than the same deck read by Fortran (issue 20).  Zero reads the
+            # same both ways (the other elements stay 0), so it is kept.
+            what = "body" if key.shape == "body" else "joint"
+            fail(f"a single value {value:g} would set every {what} here but only {what} 1 in a Fortran "
+                 f"namelist read; write {length}*{value:g} for all {length}, or one value per {what}")
         return np.full(length, value, dtype=float if key.type == "real" else object)
     if length is None:
         length = offset + len(items)
@@ -326,8 +343,11 @@ def _real_array(key: Key, a: np.ndarray, n: int, fail) -> np.ndarray:
         fail(f"must be finite, got {a[bad][0]} (value {int(np.argmax(bad)) + 1})")
     lo = (a <= key.low) if key.low_open else (a < key.low)
     hi = (a >= key.high) if key.high_open else (a > key.high)
-    if np.any(lo | hi):
-        fail(_range_reason(key, float(a[np.argmax(lo | hi)])))
+    tiny = (a != 0) & (np.abs(a) < key.tiny)
+    if np.any(lo | hi | tiny):
+        v = float(a[np.argmax(lo | hi | tiny)])
+        fail(_range_reason(key, v) if not key.tiny or abs(v) >= key.tiny else
+             f"is 0 (none) or at least {key.tiny:g} {key.unit}, got {v:g}")
     return a.astype(float)
 
 
@@ -342,6 +362,9 @@ def _element(key: Key, v, fail):
     elif key.type == "int":
         if isinstance(v, bool) or not isinstance(v, int):
             fail(f"not an integer: {v!r}")
+        if abs(v) > INT32_MAX:
+            fail(f"{v} is beyond the core's 32-bit integers (at most {INT32_MAX}); "
+                 f"allowed: {key.range_text()}")
     elif key.type == "bool":
         if not isinstance(v, bool):
             fail(f"not a logical (.true. or .false.): {v!r}")
@@ -357,17 +380,23 @@ def _element(key: Key, v, fail):
     hi_bad = v > key.high or (key.high_open and v == key.high)
     if lo_bad or hi_bad:
         fail(_range_reason(key, v))
+    if v != 0 and abs(v) < key.tiny:
+        fail(f"is 0 (none) or at least {key.tiny:g} {key.unit}, got {v:g}")
     return v
 
 
 def _range_reason(key: Key, v) -> str:
-    if key.low == 0.0 and key.low_open and key.high == math.inf:
-        return f"must be positive, got {v:g}"
-    if key.low == 0.0 and key.high == math.inf:
-        return f"must not be negative, got {v:g}"
+    note = f" ({key.note})" if key.note else ""
+    unit = f" {key.unit}" if key.unit not in ("-", "") else ""
     if key.type == "int":
         return f"must be at least {key.low:g}, got {v}" if v < key.low else f"must be at most {key.high:g}, got {v}"
-    return f"must be {key.range_text()}, got {v:g}"
+    if v < 0 <= key.low:
+        head = "must not be negative" if key.low == 0 and not key.low_open else "must be positive"
+    elif v == 0 and (key.low > 0 or key.low_open and key.low == 0):
+        head = "must be positive"
+    else:
+        head = "is out of range"
+    return f"{head}: allowed {key.range_text()}{unit}, got {v:g}{note}"
 
 
 def parse_value_text(key: Key, text: str, deck: str = "--set"):

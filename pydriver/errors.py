@@ -20,3 +20,11 @@ class DeckError(ValueError):
 
 class RunError(RuntimeError):
     """A valid deck whose run failed (solver did not converge, singular system, ...)."""
+
+
+class OutputError(OSError):
+    """An output path a run refuses to write to (a foreign directory, a file, a link, the
+    working directory): raised before anything is computed (:mod:`pydriver.run_directory`)."""
+
+    def __str__(self):
+        return self.strerror or super().__str__()

@@ -13,10 +13,16 @@ quantity (e.g. ``"M_bend_3"``), sampled over a whole number of revolutions.
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass
 
 import numpy as np
 import rainflow
+
+#: log of the largest float: damage and amplitudes are computed as logarithms and compared with
+#: it before exp(), so any positive finite S-N parameters give a number or a clean ValueError,
+#: never an OverflowError or inf.
+_LOG_MAX = math.log(sys.float_info.max)
 
 
 def _positive_finite(name: str, value) -> float:
@@ -254,18 +260,18 @@ def miner_damage(cyc: Cycles, sn: SNCurve) -> float:
     if not np.any(damaging):
         return 0.0
     a, n = a[damaging], cyc.counts[damaging]
-    # n / N(a) = n (a / S_ref)^m / N_ref, written so that N(a) never underflows to 0 for
-    # a >> S_ref; the largest amplitude is factored out so only that factor can overflow.
+    # n / N(a) = n (a / S_ref)^m / N_ref with the largest amplitude factored out, in logs:
+    #   log D = m log(a_max / S_ref) - log N_ref + log sum n (a / a_max)^m,
+    # every term finite for positive finite parameters (the sum is at least the largest
+    # amplitude's count, 0.5), so only D itself can leave the float range.
     a_max = float(np.max(a))
-    try:
-        factor = (a_max / sn.reference_amplitude) ** sn.exponent / sn.reference_cycles
-    except OverflowError:
-        factor = math.inf
-    damage = factor * float(np.sum(n * (a / a_max) ** sn.exponent))
-    if not math.isfinite(damage):
+    log_damage = (sn.exponent * (math.log(a_max) - math.log(sn.reference_amplitude)) - math.log(sn.reference_cycles)
+                  + math.log(float(np.sum(n * (a / a_max) ** sn.exponent))))
+    if log_damage >= _LOG_MAX:
         raise ValueError(f"miner_damage: damage exceeds the float range (largest amplitude {a_max:g} "
-                         f"against reference amplitude {sn.reference_amplitude:g}): check the units")
-    return damage
+                         f"against reference amplitude {sn.reference_amplitude:g}, exponent {sn.exponent:g}): "
+                         "check the units")
+    return math.exp(log_damage)         # underflows to 0.0: no damage to double precision
 
 
 def damage_equivalent_amplitude(cyc: Cycles, exponent: float, n_equivalent: float) -> float:
@@ -292,16 +298,23 @@ def damage_equivalent_amplitude(cyc: Cycles, exponent: float, n_equivalent: floa
     Raises
     ------
     ValueError
-        If ``exponent`` or ``n_equivalent`` is not finite and > 0.
+        If ``exponent`` or ``n_equivalent`` is not finite and > 0, or S_eq exceeds the float
+        range (an exponent far below 1 raises the cycle-count ratio to a huge power).
     """
     m = _positive_finite("exponent", exponent)
     n_eq = _positive_finite("n_equivalent", n_equivalent)
     a = cyc.amplitudes
     if a.size == 0 or not np.any(a > 0.0):
         return 0.0
-    # Scale by the largest amplitude: a ** m overflows for large m or large loads (N m).
+    # Scaled by the largest amplitude (a ** m overflows for large m or large loads, N m) and in
+    # logs (the 1/m-th power overflows for small m): log S_eq = log a_max + log(sum / n_eq) / m.
     a_max = float(np.max(a))
-    return a_max * float(np.sum(cyc.counts * (a / a_max) ** m) / n_eq) ** (1.0 / m)
+    weighted = float(np.sum(cyc.counts * (a / a_max) ** m))
+    log_del = math.log(a_max) + (math.log(weighted) - math.log(n_eq)) / m
+    if log_del >= _LOG_MAX:
+        raise ValueError(f"damage_equivalent_amplitude: exceeds the float range (exponent {m:g}, "
+                         f"{cyc.total:g} cycles against n_equivalent = {n_eq:g})")
+    return math.exp(log_del)
 
 
 def envelope(signal) -> dict:

@@ -2,117 +2,22 @@
 timeseries.h5, modes.csv; all of one run in one directory, complete or not at all.
 
 A run writes into a temporary sibling directory and swaps it into place when everything is
-written (:class:`RunDirectory`): a failure, an interrupt or a kill never leaves a partial or
-mixed directory, and files of an earlier run (another analysis, another deck) never survive
-beside the new ones.  Time series are streamed in chunks (:class:`TimeseriesWriter`), never
+written (:class:`pydriver.run_directory.RunDirectory`, which also refuses any directory that
+is not empty or one earlier run's).  Time series are streamed in chunks (:class:`TimeseriesWriter`), never
 built as one text in memory; large ones go to HDF5 (h5py), which every analysis tool reads.
 """
 
 from __future__ import annotations
 
-import ctypes
-import errno
 import json
-import os
-import shutil
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from pydriver.run_directory import RunDirectory
+
 #: Time series with more values than this go to HDF5 when the deck asks for 'auto'.
 CSV_MAX_VALUES = 5_000_000
-
-
-def _renameat2_exchange(a: Path, b: Path) -> bool:
-    """Atomically exchange two paths (Linux renameat2 RENAME_EXCHANGE); False if unsupported."""
-    try:
-        libc = ctypes.CDLL(None, use_errno=True)
-        fn = libc.renameat2
-    except (OSError, AttributeError):
-        return False
-    at_fdcwd, rename_exchange = -100, 2
-    rc = fn(at_fdcwd, os.fsencode(str(a)), at_fdcwd, os.fsencode(str(b)), rename_exchange)
-    if rc == 0:
-        return True
-    err = ctypes.get_errno()
-    if err in (errno.ENOSYS, errno.EINVAL, errno.ENOTSUP):
-        return False
-    raise OSError(err, os.strerror(err), str(b))
-
-
-def _pid_alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
-
-
-class RunDirectory:
-    """A run's output directory, written in a temporary sibling and swapped in at the end.
-
-    Use as a context manager: on success ``commit`` swaps it in; on any exception the
-    temporary directory is removed and the old output stays as it was.
-    """
-
-    def __init__(self, out):
-        self.out = Path(out)
-        parent = self.out.parent
-        parent.mkdir(parents=True, exist_ok=True)
-        self._clean_stale(parent)
-        self.tmp = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.tmp-{os.getpid()}-", dir=parent))
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(self.tmp, 0o777 & ~umask)        # mkdtemp makes 0700; a result is for others too
-        self.committed = False
-
-    def _clean_stale(self, parent: Path):
-        """Remove temporaries of earlier runs into the same directory whose process is gone
-        (a run killed with SIGKILL cannot clean up after itself)."""
-        for p in parent.glob(f".{self.out.name}.tmp-*"):
-            try:
-                pid = int(p.name.rsplit(".tmp-", 1)[1].split("-")[0])
-            except (IndexError, ValueError):
-                continue
-            if not _pid_alive(pid):
-                shutil.rmtree(p, ignore_errors=True)
-        for p in parent.glob(f".{self.out.name}.old-*"):
-            shutil.rmtree(p, ignore_errors=True)
-
-    def path(self, name: str) -> Path:
-        """Where to write the file ``name`` of this run."""
-        return self.tmp / name
-
-    def commit(self) -> Path:
-        """Put the finished directory in place of ``out`` (atomically where Linux allows)."""
-        if self.out.is_symlink() or (self.out.exists() and not self.out.is_dir()):
-            raise OSError(errno.EEXIST, "exists and is not a directory", str(self.out))
-        if self.out.exists():
-            if _renameat2_exchange(self.tmp, self.out):
-                shutil.rmtree(self.tmp, ignore_errors=True)      # now holds the old run
-            else:
-                old = self.out.parent / f".{self.out.name}.old-{os.getpid()}"
-                os.rename(self.out, old)
-                os.rename(self.tmp, self.out)
-                shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.rename(self.tmp, self.out)
-        self.committed = True
-        return self.out
-
-    def abort(self):
-        shutil.rmtree(self.tmp, ignore_errors=True)
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, exc_type, exc, tb):
-        if exc_type is not None or not self.committed:
-            self.abort()
-        return False
 
 
 def _fmt(x: float) -> str:
@@ -242,11 +147,3 @@ def write_files(result, run_dir: RunDirectory, plots: bool = False) -> None:
     (run_dir.path("summary.json")).write_text(json.dumps(result.summary, indent=2, allow_nan=False) + "\n",
                                               encoding="utf-8")
     result.files["summary.json"] = run_dir.out / "summary.json"
-
-
-def write_result(result, out, plots: bool = False) -> list[Path]:
-    """Write all files of a result into ``out`` as one unit; return the final paths."""
-    with RunDirectory(out) as run_dir:
-        write_files(result, run_dir, plots)
-        run_dir.commit()
-    return sorted(result.files.values())

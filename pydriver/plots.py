@@ -230,6 +230,13 @@ def plot_envelopes(result, out: Path):
     yield _save(fig, out, "envelopes.png")
 
 
+def _campbell_band(values):
+    """(low, high) of a two-value band in either order; None for any other count (the deck
+    checks its own bands; a summary from elsewhere may not hold two values)."""
+    values = [float(x) for x in np.ravel(values)] if values is not None else []
+    return (min(values), max(values)) if len(values) == 2 else None
+
+
 def plot_campbell(result, out: Path):
     """Campbell diagram: tracked modes against rotor speed, the k/rev lines, the lead-lag band,
     the operating range and the crossings in it."""
@@ -238,10 +245,12 @@ def plot_campbell(result, out: Path):
     rpm = np.asarray(s["rpm"])
     f = np.asarray(s["frequencies_hz"])
     fig, ax = plt.subplots(figsize=(9, 6), constrained_layout=True)
-    op = s["operating_rpm"]
-    ax.axvspan(op[0], op[1], color="0.93", zorder=0, label="operating range")
-    band = s["lag_band_hz"]
-    ax.axhspan(band[0], band[1], color="tab:orange", alpha=0.2, zorder=0, label="lead-lag band")
+    op = _campbell_band(s["operating_rpm"])
+    if op is not None:
+        ax.axvspan(*op, color="0.93", zorder=0, label="operating range")
+    band = _campbell_band(s["lag_band_hz"])
+    if band is not None:
+        ax.axhspan(*band, color="tab:orange", alpha=0.2, zorder=0, label="lead-lag band")
     top = max(float(np.max(f)) * 1.05, s["harmonics"] * rpm[-1] / 60.0 * 0.3)
     for k in range(1, s["harmonics"] + 1):
         ax.plot(rpm, k * rpm / 60.0, "k--", lw=0.7, zorder=1)

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from pydriver.report_text import _num, text_summary
+from pydriver.richardson import TWO_GRID_SAFETY
 from pydriver.schema import lookup
 
 STYLE = """
@@ -83,11 +84,18 @@ def html_report(result, model=None) -> str:
                      f"(moment about the clamp point), {s['frame']} frame.</p>" + _table(["", "x", "y", "z"], rows))
     if "refinement" in s:
         r = s["refinement"]
-        rows = [[name, *q["values"], q["extrapolated"], q["error_estimate"], q["observed_order"],
-                 q.get("warning") or ""] for name, q in r["quantities"].items()]
-        parts.append(f"<h2>Converged values (n = {', '.join(map(str, r['n']))})</h2>"
-                     "<p>Richardson extrapolation over the three discretisations, with the observed order "
-                     f"(expected {r['expected_order']:g}) and the error estimate |extrapolated - finest|.</p>"
+        rows = [[name, *q["values"], q["extrapolated"], q["error_estimate"],
+                 q["observed_order"] if q.get("order_observed", True) else "assumed", q.get("warning") or ""]
+                for name, q in r["quantities"].items()]
+        if len(r["n"]) >= 3:
+            how = ("Richardson extrapolation over the three finest discretisations, with the observed order "
+                   f"(expected {r['expected_order']:g}) and the error estimate |extrapolated - finest|.")
+        else:
+            how = ("Richardson extrapolation over two discretisations, which cannot show the order of "
+                   f"convergence: the expected order {r['expected_order']:g} is assumed, and the error estimate "
+                   f"is {TWO_GRID_SAFETY:g} |extrapolated - finest| (Roache's safety factor for two grids).  "
+                   "Three levels observe the order.")
+        parts.append(f"<h2>Converged values (n = {', '.join(map(str, r['n']))})</h2><p>{how}</p>"
                      + _table(["quantity", *[f"n = {n}" for n in r["n"]], "extrapolated", "error +-",
                                "order", "note"], rows))
     if result.table is not None:

@@ -77,17 +77,19 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
         q = {k: r for k, r in s["refinement"]["quantities"].items() if "extrapolated" in r}
         # Frequencies, peak loads and the worst joint's DEL first; the clamp-load maxima and
         # DELs are in refinement.csv and report.html.
-        first = [k for k in q if k.startswith(("f", "peak", "DEL strain", "DEL bending", "F_", "M_", "tip",
+        first = [k for k in q if k.startswith(("fd", "peak", "DEL strain", "DEL bending", "F_", "M_", "tip",
                                                "decay"))]
         shown = (first or list(q))[:10]
         lines.append("  converged values (Richardson over n = "
                      + ", ".join(str(n) for n in s["refinement"]["n"]) + "):")
         for name in shown:
             r = q[name]
-            lines.append(f"    {name:<26}{_num(r['extrapolated'])} +- {_num(r['error_estimate'], 2)} "
-                         f"(order {r['observed_order']:.2f})")
+            order = (f"order {r['observed_order']:.2f}" if r.get("order_observed", True)
+                     else f"order {r['observed_order']:g} assumed")
+            lines.append(f"    {name:<26}{_num(r['extrapolated'])} +- {_num(r['error_estimate'], 2)} ({order})")
         if len(q) > len(shown):
             lines.append(f"    ... {len(q) - len(shown)} more (clamp loads, DELs) in refinement.csv")
+    lines += _resonance_lines(s.get("resonance"))
     for w in s.get("warnings", []):
         lines.append(f"  warning: {w}")
     if files:
@@ -95,3 +97,25 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
         names = ", ".join(sorted(p.name for p in files.values()))
         lines.append(f"  files: {' '.join(sorted(folder))}/ ({names})")
     return "\n".join(lines)
+
+
+def _resonance_lines(block: dict | None) -> list[str]:
+    """The resonance margins (modal, Campbell and flight runs): one line per mode and speed."""
+    if not block:
+        return []
+    if not block.get("operating_rpm"):
+        return [f"  resonance margins: {block.get('note', 'no operating speed')}"]
+    speeds = ", ".join(f"{r:g}" for r in block["operating_rpm"])
+    lines = [f"  resonance margins at {speeds} rpm (required {block['required_margin_percent']:g} % from "
+             f"1/rev ... {block['harmonics']}/rev; modes about {block['modes_about']}):"]
+    if not block["modes"]:
+        lines.append("    no mode below the highest harmonic")
+    for r in block["modes"][:8]:
+        err = f" +- {_num(r['error_hz'], 2)}" if r.get("error_hz") else ""
+        flag = "   <- within the margin" if r["within_margin"] else ""
+        lines.append(f"    mode {r['mode']:<3}{_num(r['frequency_hz'], 4):>9}{err} Hz   nearest "
+                     f"{r['harmonic']}/rev = {_num(r['harmonic_hz'], 4)} Hz at {r['operating_rpm']:g} rpm   "
+                     f"margin {r['worst_margin_percent']:.1f} %{flag}")
+    if len(block["modes"]) > 8:
+        lines.append(f"    ... {len(block['modes']) - 8} more in resonance.csv")
+    return lines

@@ -38,6 +38,10 @@ def run_deck(path, out=None, plots: bool = False, report: bool = False) -> Resul
         Bad input, naming the deck, group, key and reason.
     RunError
         The solver failed on a valid deck.
+    OutputError
+        ``out`` is a directory holding files rotorcable did not write, a file, a link, the
+        working directory or one of its parents (raised before the computation; nothing is
+        touched).
     OSError
         The output directory cannot be written (raised before the computation).
     """
@@ -46,7 +50,7 @@ def run_deck(path, out=None, plots: bool = False, report: bool = False) -> Resul
         result = run(model)
         require_finite(result, model.name)
         return result
-    with RunDirectory(Path(out)) as run_dir:
+    with RunDirectory(Path(out), deck=model.name) as run_dir:
         result = run(model, run_dir)
         require_finite(result, model.name)
         write_files(result, run_dir, plots)

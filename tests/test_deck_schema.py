@@ -85,7 +85,7 @@ def test_repeat_counts_and_element_assignments():
     (SIX.replace("&loads", "&springs\n  c_beta =\n/\n&loads"), "springs", "c_beta", "no value"),
     (SIX.replace("&loads", "&springs\n  c_beta = 6.1, 10*3.05\n/\n&loads"), "springs", "c_beta", "5 values"),
     (SIX.replace("density = 7801.0", "density = 1.0e400"), "chain", "density", "finite"),
-    (SIX.replace("density = 7801.0", "density = 7801.0.0"), "chain", "density", "one value"),
+    (SIX.replace("density = 7801.0", "density = 7801.0.0"), "chain", "density", "not a number"),
     (SIX.replace("n_bodies = 5", "n_bodies = 5\n  lenght = 1.0"), "chain", "lenght", "unknown key"),
     (SIX + "\n&rotr\n rpm = 3\n/\n", "rotr", "", "unknown group"),
     (SIX.replace("first_body = 'clamped'", "first_body = 'clamped"), "", "", "namelist"),

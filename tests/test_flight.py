@@ -66,7 +66,7 @@ def test_jacobi_integral_is_conserved_at_constant_speed():
     m = variant({"case.analysis": "dynamic", "case.start": "equilibrium", "blade.flap_deg": 0.0,
                  "blade.lag_deg": 0.0, "blade.pitch_deg": 0.0, "loads.pulse_body": 6, "loads.pulse_force": "0.0, 2.0, 5.0",
                  "loads.pulse_end": 0.02, "solver.t_end": 2.02, "solver.dt_out": 0.01, "springs.d_beta": 0.0,
-                 "springs.d_twist": 0.0, "springs.c_twist": 0.1, "springs.c_beta": 2.0, "drag.forward_speed": 0.0, "drag.air_density": 1.0e-30,
+                 "springs.d_twist": 0.0, "springs.c_twist": 0.1, "springs.c_beta": 2.0, "drag.forward_speed": 0.0, "drag.cd": 0.0,
                  **TIGHT, "solver.atol": 1.0e-10})
     res = pydriver.run_deck(m)
     after = res.timeseries["t"] >= 0.02
@@ -81,7 +81,7 @@ def test_moving_clamp_energy_equals_the_work_of_the_supports():
     integral of F.v + M.w over both supports (velocities relative to the hub), to 1e-6
     relative (trapezoidal rule on 2e-5 s samples: O(dt^2) ~ 1e-8)."""
     m = variant({"case.analysis": "dynamic", "case.start": "equilibrium", "solver.t_end": 0.12,
-                 "solver.dt_out": 2.0e-5, "springs.d_beta": 0.0, "springs.d_twist": 0.0, "drag.air_density": 1.0e-30,
+                 "solver.dt_out": 2.0e-5, "springs.d_beta": 0.0, "springs.d_twist": 0.0, "drag.cd": 0.0,
                  **TIGHT})
     res = pydriver.run_deck(m)
     ts = res.timeseries
@@ -100,7 +100,7 @@ def test_moving_clamp_energy_equals_the_work_of_the_supports():
 def test_zero_blade_motion_settles_onto_the_hover_shape():
     """Constant speed, no blade motion, no stream, dampers on: the periodic steady state is the
     quasi-static hover equilibrium of the same terms (to 1e-9 m)."""
-    m = variant({"blade.flap_deg": 0.0, "blade.lag_deg": 0.0, "blade.pitch_deg": 0.0, "drag.air_density": 1.0e-30,
+    m = variant({"blade.flap_deg": 0.0, "blade.lag_deg": 0.0, "blade.pitch_deg": 0.0, "drag.cd": 0.0,
                  "solver.periodic_tol": 1.0e-10, **TIGHT})
     flight = pydriver.run_deck(m)
     hover = pydriver.run_deck(m.with_changes({"case.analysis": "static"}))

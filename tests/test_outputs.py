@@ -26,7 +26,7 @@ def test_static_outputs(tmp_path):
     assert txt[0].split()[0] == "Körper" and len(txt[1].split()) == 6
     assert txt[3].split() == ["3", "90.00", "90.00", "0.2000", "0.1000", "-0.2000"]
     assert "c_y" in txt[-1]
-    assert not list(tmp_path.glob(".*"))            # no temporary files left
+    assert [p.name for p in tmp_path.glob(".*")] == [".rotorcable-run.json"]    # no temporaries left
 
 
 def test_dynamic_outputs(tmp_path):

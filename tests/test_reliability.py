@@ -64,14 +64,17 @@ def test_every_run_reaches_t_end_exactly(tmp_path, t_end, dt_out, expect):
     assert res.summary["solver"]["steps"] > 0
 
 
-@pytest.mark.parametrize("t_end,dt_out", [(1.0, 1e-10), (1e300, 1e-2)])
-def test_sample_counts_that_cannot_fit_are_refused(tmp_path, t_end, dt_out):
+@pytest.mark.parametrize("t_end,dt_out,key,words", [(1.0, 1e-10, "dt_out", "samples"),
+                                                    (1e6, 1e-6, "dt_out", "samples"),
+                                                    (1e300, 1e-2, "t_end", "1e+07")])
+def test_sample_counts_that_cannot_fit_are_refused(tmp_path, t_end, dt_out, key, words):
     """dt_out = 1e-10 gave a raw f2py error about a negative dimension (32-bit overflow) and
-    t_end = 1e300 ran nothing; both are refused before anything is allocated."""
+    t_end = 1e300 ran nothing; both are refused before anything is allocated (t_end = 1e300
+    now by the schema's range of t_end, up to 1e7 s)."""
     p = deck(tmp_path, "six_link_dynamic", {"solver": {"t_end": repr(t_end), "dt_out": repr(dt_out)}})
     with pytest.raises(pydriver.DeckError) as exc:
         pydriver.run_deck(p)
-    assert (exc.value.group, exc.value.key) == ("solver", "dt_out") and "samples" in str(exc.value)
+    assert (exc.value.group, exc.value.key) == ("solver", key) and words in str(exc.value)
 
 
 def test_pulse_after_the_run_is_refused_and_a_short_decay_is_not_fitted(tmp_path):
@@ -127,7 +130,8 @@ def test_out_directory_holds_one_run(tmp_path):
     pydriver.run_deck(INPUTS / "uh60_part2_modal.nml", out=out)
     assert (out / "modes.csv").exists()
     pydriver.run_deck(INPUTS / "six_link_static.nml", out=out)
-    assert sorted(p.name for p in out.iterdir()) == ["summary.json", "table.csv", "table.txt"]
+    assert sorted(p.name for p in out.iterdir()) == [".rotorcable-run.json", "summary.json", "table.csv",
+                                                     "table.txt"]
     run = next(iter(pydriver.load_results(out).runs.values()))
     assert run.modes is None and run.summary["n_bodies"] == 5 and len(run.table["body"]) == 5
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]    # no temporaries

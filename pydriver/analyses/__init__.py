@@ -1,6 +1,7 @@
 """The analyses a deck can ask for, each on a :class:`~pydriver.model.Model`:
 static equilibrium, dynamic run, modal analysis (and, built on them, forward flight and the
-Campbell diagram).  :func:`run` dispatches on ``&case analysis``."""
+Campbell diagram).  :func:`run` dispatches on ``&case analysis``; modal, Campbell and
+flight runs end with their resonance margins (:mod:`pydriver.analyses.resonance`)."""
 
 from __future__ import annotations
 
@@ -17,6 +18,8 @@ def run(model, run_dir=None):
     if "fatigue" in model.deck.groups and model.analysis not in ("flight", "dynamic"):
         result.summary.setdefault("warnings", []).append(
             f"&fatigue is not evaluated: analysis '{model.analysis}' has no load history (flight or dynamic has)")
+    from pydriver.analyses.resonance import attach_margins
+    attach_margins(model, result)
     return result
 
 
@@ -31,7 +34,10 @@ def run_single(model, run_dir=None):
     if analysis == "dynamic":
         return dynamics.dynamic_analysis(model, run_dir)
     if analysis == "flight":
-        return flight.flight_analysis(model, run_dir)
+        from pydriver.analyses.hover_modes import add_hover_modes
+        result = flight.flight_analysis(model, run_dir)
+        add_hover_modes(model, result)
+        return result
     if analysis == "campbell":
         return campbell.campbell_analysis(model)
     model.deck.fail("case", "analysis", f"analysis '{analysis}' is not available in this version")

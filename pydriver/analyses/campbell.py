@@ -9,6 +9,9 @@ The eigenvalues of the first-order pencil, s = -zeta w +- i w sqrt(1 - zeta^2), 
 and damping; modes are followed from speed to speed by the mass-weighted modal assurance
 criterion (MAC) of their complex shapes.  numpy's eig on the state matrix is used: at the
 sizes of a cable model (tens of coordinates) it is exact enough and leaves the core small.
+
+The diagram is that of the steady loads: a force pulse of the deck (``&loads pulse_body``) is a
+dynamic excitation and is left out, as in the static and modal analyses.
 """
 
 from __future__ import annotations
@@ -18,7 +21,25 @@ import time
 import numpy as np
 
 from pydriver.analyses.common import base_summary
+from pydriver.analyses.statics import unforced, unforced_note
+from pydriver.errors import RunError
 from pydriver.result import Result
+from pydriver.schema import lookup
+
+#: Below this MAC between neighbouring speeds the tracking may have swapped modes.  0.9 is the
+#: customary threshold of "the same mode" in MAC correlation (Allemang, "The modal assurance
+#: criterion - twenty years of use and abuse", Sound and Vibration 37(8), 2003) and the value
+#: the reference deck is tested against (tests/test_campbell.py: 0.957 at 26 speeds).
+MAC_THRESHOLD = 0.9
+
+#: A single ``operating_rpm`` value v is one operating speed; crossings are reported within
+#: v (1 +- this): a governed rotor holds its speed to a few percent (droop, transients).
+SINGLE_SPEED_MARGIN = 0.05
+
+#: K_r eigenvalues (w^2) below this fraction of the largest are zero stiffness, as in the
+#: modal analysis (src_fortran/modal.f90: a coordinate without a spring and without a load
+#: across it).
+ZERO_STIFFNESS_REL = 1.0e-9
 
 
 def speed_key(model) -> str:
@@ -26,20 +47,117 @@ def speed_key(model) -> str:
     return "rotor.rpm" if "rotor" in model.deck.groups else "loads.rotor_rpm"
 
 
-def complex_modes(mats: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Eigenvalues s and shapes in q of the linearised system: one of each oscillating pair
-    (Im s > 0) by ascending frequency, then the non-oscillating ones (real s: overdamped, or,
-    with Re s > 0, a divergent equilibrium).  Also returns which are oscillating."""
+# -- deck values ------------------------------------------------------------------------------
+
+def diagram_top(model) -> float:
+    """``rpm_max``, or the deck's rotor speed when not given [rpm]; it must be above 0."""
+    c = model.deck.values["campbell"]
+    if c["rpm_max"] is not None:
+        return float(c["rpm_max"])
+    top = float(model.description["rotor"]["omega_max"] * 30.0 / np.pi)
+    if not top > 0.0:
+        model.deck.fail("campbell", "rpm_max", "is not given and the rotor speed is 0: the diagram needs a "
+                                               "highest speed above 0")
+    return top
+
+
+def operating_range(model, rpm_max: float) -> tuple[tuple[float, float], list[str]]:
+    """The speed range [rpm] in which crossings are reported, and the warnings it needs.
+
+    Two values are the range; given high to low they are sorted (with a warning: the order
+    carries no meaning, and the old code then reported no crossings at all).  One value v is
+    one operating speed: the range v (1 +- SINGLE_SPEED_MARGIN), cut at 0 and rpm_max.  No
+    value: 0 ... rpm_max.  More than two values, or a speed above rpm_max (where the diagram
+    has no data, so crossings there would silently be missing), are a DeckError.
+    """
+    given = model.deck["campbell.operating_rpm"]
+    if given is None:
+        return (0.0, rpm_max), []
+    values = [float(x) for x in given]
+    if len(values) not in (1, 2):
+        model.deck.fail("campbell", "operating_rpm", f"takes one operating speed or a range (min, max) [rpm], "
+                                                     f"got {len(values)} values")
+    if max(values) > rpm_max * (1.0 + 1e-12):
+        model.deck.fail("campbell", "operating_rpm", f"reaches {max(values):g} rpm, above the diagram's "
+                                                     f"rpm_max = {rpm_max:g} rpm: raise rpm_max or lower the range")
+    if len(values) == 1:
+        v = values[0]
+        return (v * (1.0 - SINGLE_SPEED_MARGIN), min(v * (1.0 + SINGLE_SPEED_MARGIN), rpm_max)), []
+    warnings = []
+    if values[0] > values[1]:
+        warnings.append(f"&campbell operating_rpm = {values[0]:g}, {values[1]:g} is given high to low: taken as "
+                        f"the range {values[1]:g} ... {values[0]:g} rpm")
+    return (min(values), max(values)), warnings
+
+
+def lag_band(model) -> tuple[tuple[float, float], list[str]]:
+    """The lead-lag band [Hz] drawn in the diagram: exactly two values, sorted (with a warning
+    when given high to low); another count is a DeckError."""
+    values = [float(x) for x in model.deck["campbell.lag_band_hz"]]
+    if len(values) != 2:
+        model.deck.fail("campbell", "lag_band_hz", f"takes two values (low, high) [Hz], got {len(values)}")
+    warnings = []
+    if values[0] > values[1]:
+        warnings.append(f"&campbell lag_band_hz = {values[0]:g}, {values[1]:g} is given high to low: drawn as "
+                        f"{values[1]:g} ... {values[0]:g} Hz")
+    return (min(values), max(values)), warnings
+
+
+def check_mode_count(model, n_modes: int) -> None:
+    """n_modes can be at most the model's number of modes, coordinates minus constraints."""
+    nf = model.nq - model.nc
+    if n_modes > nf:
+        model.deck.fail("campbell", "n_modes", f"is {n_modes}, but the model has {nf} modes ({model.nq} "
+                                               f"coordinates, {model.nc} constraints)")
+
+
+# -- modes at one speed -----------------------------------------------------------------------
+
+def zero_stiffness_basis(m_r: np.ndarray, k_r: np.ndarray) -> np.ndarray:
+    """An M_r-orthonormal basis (nf, k) of the coordinates K_r does not resist (k may be 0).
+
+    With M_r = L L^T, K_r x = 0 is (L^-1 K_r L^-T) y = 0 for y = L^T x; the singular vectors of
+    that matrix with (relatively) zero singular values are orthonormal, so x = L^-T y is
+    M_r-orthonormal.  The SVD needs no symmetry (a follower load makes K_r unsymmetric)."""
+    chol = np.linalg.cholesky(m_r)
+    scaled = np.linalg.solve(chol, np.linalg.solve(chol, k_r.T).T)
+    _, sing, vh = np.linalg.svd(scaled)
+    null = sing <= ZERO_STIFFNESS_REL * np.max(sing, initial=0.0)
+    return np.linalg.solve(chol.T, vh[null].conj().T)
+
+
+def complex_modes(mats: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Eigenvalues s and shapes in q of the linearised system, lowest first.
+
+    First the zero-stiffness modes (s = 0, an M_r-orthonormal basis of K_r's null space: the
+    eigenvectors eig returns there are defective, parallel pairs when nothing damps them),
+    then one of each oscillating pair (Im s > 0) by ascending frequency, then the other
+    non-oscillating ones (real s: overdamped, or, with Re s > 0, a divergent equilibrium).
+    Also returns which are oscillating and which have zero stiffness."""
     m, k, d, basis = mats["M_r"], mats["K_r"], mats["D_r"], mats["basis"]
     nf = m.shape[0]
     minv = np.linalg.inv(m)
     a = np.block([[np.zeros((nf, nf)), np.eye(nf)], [-minv @ k, -minv @ d]])
     s, v = np.linalg.eig(a)
+    v = v.astype(complex)                         # all-real spectra come back as real arrays
+    null = zero_stiffness_basis(m, k)
+    n_zero = null.shape[1]
+    keep = np.ones(len(s), bool)
+    if n_zero:
+        # The null space has between n_zero (damped) and 2 n_zero (undamped: Jordan pairs) roots
+        # at 0; eig scatters a Jordan pair by ~sqrt(round-off), hence the loose 1e-4.
+        smallest = np.argsort(np.abs(s))
+        near = int(np.count_nonzero(np.abs(s) <= 1e-4 * max(1.0, np.max(np.abs(s)))))
+        keep[smallest[:min(max(near, n_zero), 2 * n_zero)]] = False
     tiny = 1e-9 * max(1.0, np.max(np.abs(s)))
-    osc = s.imag > tiny
-    real = np.abs(s.imag) <= tiny
+    osc = keep & (s.imag > tiny)
+    real = keep & (np.abs(s.imag) <= tiny)
     order = np.concatenate([np.flatnonzero(osc)[np.argsort(s.imag[osc])], np.flatnonzero(real)])
-    return s[order], basis @ v[:nf, order], osc[order]
+    sv = np.concatenate([np.zeros(n_zero, complex), s[order]])
+    shapes = np.hstack([basis @ null.astype(complex), basis @ v[:nf, order]])
+    oscillating = np.concatenate([np.zeros(n_zero, bool), osc[order]])
+    zero = np.arange(len(sv)) < n_zero
+    return sv, shapes, oscillating, zero
 
 
 def mac(a: np.ndarray, b: np.ndarray, m_full: np.ndarray) -> np.ndarray:
@@ -47,7 +165,7 @@ def mac(a: np.ndarray, b: np.ndarray, m_full: np.ndarray) -> np.ndarray:
     cross = a.conj().T @ m_full @ b
     na = np.real(np.einsum("ij,ik,kj->j", a.conj(), m_full, a))
     nb = np.real(np.einsum("ij,ik,kj->j", b.conj(), m_full, b))
-    return np.abs(cross) ** 2 / np.outer(na, nb)
+    return np.abs(cross) ** 2 / np.maximum(np.outer(na, nb), np.finfo(float).tiny)
 
 
 def degenerate_clusters(sv: np.ndarray, count: int, rel: float = 1e-7) -> list[np.ndarray]:
@@ -73,71 +191,153 @@ def resolve_degenerate(shapes: np.ndarray, sv: np.ndarray, count: int, next_shap
     on another CPU, and MAC tracking then labels the modes at random.  The speed next on the
     grid splits the cluster; its modes that lie most in the cluster's space, projected onto it
     (mass-orthogonally) and ordered by their own frequency, are the basis that tracking can
-    follow.  Projection: P w = V (V^H M V)^-1 V^H M w."""
+    follow.  Projection: P w = V (V^H M V)^+ V^H M w (the pseudo-inverse: a defective cluster's
+    shapes need not be independent)."""
     out = shapes.copy()
     for idx in degenerate_clusters(sv, count):
         v = shapes[:, idx]
         gram = v.conj().T @ m_full @ v
-        coeff = np.linalg.solve(gram, v.conj().T @ m_full @ next_shapes)
+        coeff = np.linalg.pinv(gram, rcond=1e-10, hermitian=True) @ (v.conj().T @ m_full @ next_shapes)
         proj = v @ coeff
         # Fraction of each next-speed shape inside the cluster's space (1 = entirely).
         inside = (np.real(np.einsum("ij,ik,kj->j", proj.conj(), m_full, proj))
                   / np.real(np.einsum("ij,ik,kj->j", next_shapes.conj(), m_full, next_shapes)))
-        chosen = np.sort(np.argsort(-inside)[:len(idx)])            # next_sv is ascending
+        # Shapes entirely inside (to round-off) tie; the lowest of them come first then.
+        rank = np.lexsort((np.arange(len(inside)), -np.where(inside >= 1.0 - 1e-6, 1.0, inside)))
+        chosen = np.sort(rank[:len(idx)])                           # next_sv is ascending
         out[:, idx] = proj[:, chosen]
     return out
 
+
+# -- the diagram ------------------------------------------------------------------------------
 
 def crossings(rpm, freqs, harmonics: int, op_range) -> list[dict]:
     """Where a tracked mode's frequency meets k/rev inside the operating range (linear
     interpolation between grid speeds).  Only between speeds where the mode oscillates at
     both ends: an overdamped mode (frequency 0) cannot resonate, and interpolating into its 0
     would invent a crossing."""
+    rpm = np.asarray(rpm, float)
     out = []
     for mode in range(freqs.shape[1]):
+        f = freqs[:, mode]
+        both = (f[:-1] > 0.0) & (f[1:] > 0.0)
         for k in range(1, harmonics + 1):
-            gap = freqs[:, mode] - k * rpm / 60.0
-            for i in range(len(rpm) - 1):
-                if freqs[i, mode] <= 0.0 or freqs[i + 1, mode] <= 0.0:
-                    continue
-                if gap[i] == 0.0 or gap[i] * gap[i + 1] < 0.0:
-                    w = gap[i] / (gap[i] - gap[i + 1]) if gap[i] != gap[i + 1] else 0.0
-                    r = rpm[i] + w * (rpm[i + 1] - rpm[i])
-                    if op_range[0] <= r <= op_range[1]:
-                        out.append({"mode": mode + 1, "harmonic": k, "rpm": float(r),
-                                    "frequency_hz": float(k * r / 60.0)})
+            gap = f - k * rpm / 60.0
+            for i in np.flatnonzero(both & ((gap[:-1] == 0.0) | (gap[:-1] * gap[1:] < 0.0))):
+                w = gap[i] / (gap[i] - gap[i + 1]) if gap[i] != gap[i + 1] else 0.0
+                r = rpm[i] + w * (rpm[i + 1] - rpm[i])
+                if op_range[0] <= r <= op_range[1]:
+                    out.append({"mode": mode + 1, "harmonic": k, "rpm": float(r),
+                                "frequency_hz": float(k * r / 60.0)})
     return sorted(out, key=lambda c: c["rpm"])
 
 
-def campbell_analysis(model) -> Result:
-    """Frequencies of the tracked modes over the speed grid, and the crossings."""
-    t_wall = time.perf_counter()
-    c = model.deck.values["campbell"]
-    rpm_max = c["rpm_max"] if c["rpm_max"] is not None else model.description["rotor"]["omega_max"] * 30 / np.pi
-    rpm = np.linspace(0.0, rpm_max, int(c["n_speeds"]))
-    op = c["operating_rpm"] if c["operating_rpm"] is not None else [0.0, rpm_max]
-    n_modes = int(c["n_modes"])
+def tracking_macs(macs: np.ndarray, zero: np.ndarray) -> np.ndarray:
+    """The MAC of each step that tests the tracking: a step from a zero-stiffness mode is left
+    out (set to 1).  Such a mode has no shape of its own (any basis of the null space is an
+    eigenbasis; the next speed's modes projected into it stand in), and a cable without springs
+    moves its equilibrium between 0 rpm and the first speed, so that step's MAC is low on any
+    grid."""
+    out = macs.copy()
+    out[1:][zero[:-1]] = 1.0
+    return out
+
+
+def lowest_in_range(rpm: np.ndarray, freqs: np.ndarray, op) -> float:
+    """The lowest oscillating frequency over the operating range [Hz] (0 if none oscillates):
+    at the grid speeds inside it and at its two ends, interpolated linearly where the mode
+    oscillates at both neighbouring speeds (as for crossings).  The ends matter for a narrow
+    range, one operating speed's band, which may hold no grid speed at all."""
+    values = [freqs[(rpm >= op[0]) & (rpm <= op[1])].ravel()]
+    for end in op:
+        i = int(np.clip(np.searchsorted(rpm, end) - 1, 0, len(rpm) - 2))
+        w = (end - rpm[i]) / (rpm[i + 1] - rpm[i])
+        both = (freqs[i] > 0.0) & (freqs[i + 1] > 0.0)
+        values.append(((1.0 - w) * freqs[i] + w * freqs[i + 1])[both])
+    found = np.concatenate(values)
+    found = found[found > 0.0]
+    return float(np.min(found)) if found.size else 0.0
+
+
+def mac_warning(rpm: np.ndarray, macs: np.ndarray) -> list[str]:
+    """The warning for modes followed across a MAC below MAC_THRESHOLD: each such mode's worst
+    step, and the n_speeds that would halve the step (capped at the schema's bound)."""
+    low = [m for m in range(macs.shape[1]) if np.min(macs[:, m]) < MAC_THRESHOLD]
+    if not low:
+        return []
+    steps = []
+    for m in low:
+        i = int(np.argmin(macs[:, m]))
+        steps.append(f"mode {m + 1} from {rpm[i - 1]:.0f} to {rpm[i]:.0f} rpm (MAC {macs[i, m]:.2f})")
+    limit = int(lookup("campbell", "n_speeds").high)
+    finer = min(2 * len(rpm) - 1, limit)
+    advice = (f"n_speeds = {finer} halves the speed step" if finer > len(rpm) else
+              f"n_speeds is at its limit {limit}: the shapes change this fast between speeds (veering)")
+    return [f"modes were followed across speeds whose shapes differ (MAC < {MAC_THRESHOLD}): "
+            f"{'; '.join(steps)}: the tracking may have swapped modes there; {advice}"]
+
+
+def non_oscillating_warnings(rpm: np.ndarray, freqs: np.ndarray, zero: np.ndarray) -> list[str]:
+    """One warning per mode drawn at 0 Hz somewhere: zero stiffness, or overdamped."""
+    out = []
+    for mode in range(freqs.shape[1]):
+        rigid = zero[:, mode]
+        over = (freqs[:, mode] <= 0.0) & ~rigid
+        if np.any(rigid):
+            out.append(f"mode {mode + 1} has zero stiffness (no spring and no gravity or centrifugal load across "
+                       f"a coordinate) at {np.count_nonzero(rigid)} speeds from {rpm[rigid].min():.0f} rpm: "
+                       "drawn at 0 Hz, no crossings counted there")
+        if np.any(over):
+            out.append(f"mode {mode + 1} does not oscillate (overdamped, zeta >= 1) at {np.count_nonzero(over)} "
+                       f"speeds from {rpm[over].min():.0f} rpm: drawn at 0 Hz, no crossings counted there")
+    return out
+
+
+def solve_speeds(model, rpm: np.ndarray) -> list[tuple]:
+    """Equilibrium and modes at every speed (continuation: each speed starts from the last)."""
     s = model.deck.values["solver"]
     key = speed_key(model)
-    freqs = np.zeros((len(rpm), n_modes))
-    zetas = np.zeros((len(rpm), n_modes))
-    macs = np.ones((len(rpm), n_modes))
-    q_prev, tracked, unstable = None, None, []
-    solved = []
+    q_prev, solved = None, []
     for r in rpm:
         m = model.with_changes({key: float(r), "case.analysis": "static"})
         q, lam, _ = m.core.static(m.q0 if q_prev is None else q_prev, 0.0, s["newton_tol"], s["newton_max_iter"])
         q_prev = q
         mats = m.core.modal_matrices(q, lam)
-        solved.append((mats, *complex_modes(mats)))
+        try:
+            solved.append((mats, *complex_modes(mats)))
+        except np.linalg.LinAlgError as err:
+            raise RunError(f"deck '{model.name}': Campbell diagram at {r:.6g} rpm: the linearised equations "
+                           f"cannot be solved for their modes ({err}: the reduced mass matrix is singular)") from err
+    return solved
+
+
+def campbell_analysis(model) -> Result:
+    """Frequencies of the tracked modes over the speed grid, and the crossings."""
+    t_wall = time.perf_counter()
+    notes = unforced_note(model)
+    model = unforced(model)
+    c = model.deck.values["campbell"]
+    n_modes = int(c["n_modes"])
+    check_mode_count(model, n_modes)
+    rpm_max = diagram_top(model)
+    op, op_warnings = operating_range(model, rpm_max)
+    band, band_warnings = lag_band(model)
+    rpm = np.linspace(0.0, rpm_max, int(c["n_speeds"]))
+    freqs = np.zeros((len(rpm), n_modes))
+    zetas = np.zeros((len(rpm), n_modes))
+    macs = np.ones((len(rpm), n_modes))
+    zero = np.zeros((len(rpm), n_modes), bool)
+    tracked, unstable = None, []
+    solved = solve_speeds(model, rpm)
     for i, r in enumerate(rpm):
-        mats, sv, shapes, oscillating = solved[i]
+        mats, sv, shapes, oscillating, zero_stiffness = solved[i]
         if i + 1 < len(rpm):
             shapes = resolve_degenerate(shapes, sv, n_modes, solved[i + 1][2], solved[i + 1][1], mats["M"])
         if tracked is None:
-            if np.count_nonzero(oscillating) < n_modes:
-                model.deck.fail("campbell", "n_modes", f"only {np.count_nonzero(oscillating)} oscillating modes "
-                                                       f"at {r:.0f} rpm")
+            available = np.count_nonzero(oscillating | zero_stiffness)
+            if available < n_modes:
+                model.deck.fail("campbell", "n_modes", f"only {available} modes oscillate at {r:.0f} rpm (the "
+                                                       "others are overdamped): lower n_modes")
             pick = np.arange(n_modes)
         else:
             # Follow each tracked mode to the candidate it resembles most (greedy on the MAC).
@@ -148,28 +348,32 @@ def campbell_analysis(model) -> Result:
                 if pick[a] < 0 and b not in pick:
                     pick[a] = b
                     macs[i, a] = cm[a, b]
+            if np.any(pick < 0):
+                raise RunError(f"deck '{model.name}': Campbell diagram at {r:.6g} rpm: fewer modes than "
+                               f"n_modes = {n_modes} to follow")
         tracked = shapes[:, pick]
         freqs[i] = np.maximum(sv[pick].imag, 0.0) / (2.0 * np.pi)
-        zetas[i] = -sv[pick].real / np.abs(sv[pick])
+        size = np.abs(sv[pick])
+        # A zero-stiffness mode (s = 0) has no damping ratio; 0 as in the modal analysis.
+        zetas[i] = np.where(size > 0.0, -sv[pick].real / np.where(size > 0.0, size, 1.0), 0.0)
+        zero[i] = zero_stiffness[pick]
         if np.any(sv.real > 1e-9 * np.max(np.abs(sv))):
             unstable.append(float(r))
     found = crossings(rpm, freqs, int(c["harmonics"]), op)
-    in_op = (rpm >= op[0]) & (rpm <= op[1])
+    checked_macs = tracking_macs(macs, zero)
     summary = base_summary(model, "campbell", time.perf_counter() - t_wall)
-    oscillating = freqs[in_op] > 0.0
-    lowest = float(np.min(freqs[in_op][oscillating])) if np.any(oscillating) else 0.0
+    lowest = lowest_in_range(rpm, freqs, op)
     summary.update(rpm=[float(x) for x in rpm], operating_rpm=[float(x) for x in op],
-                   harmonics=int(c["harmonics"]), lag_band_hz=[float(x) for x in c["lag_band_hz"]],
+                   harmonics=int(c["harmonics"]), lag_band_hz=[float(x) for x in band],
                    frequencies_hz=[[float(x) for x in row] for row in freqs],
                    crossings=found, lowest_frequency_hz=lowest,
                    highest_1rev_hz=float(op[1] / 60.0),
                    below_1rev_in_operating_range=bool(lowest < op[1] / 60.0),
-                   min_mac=float(np.min(macs)), unstable_rpm=unstable)
-    summary["warnings"] = []
-    for mode in np.flatnonzero(np.any(freqs <= 0.0, axis=0)):
-        at = rpm[freqs[:, mode] <= 0.0]
-        summary["warnings"].append(f"mode {mode + 1} does not oscillate (overdamped, zeta >= 1) at {len(at)} "
-                                   f"speeds from {at.min():.0f} rpm: drawn at 0 Hz, no crossings counted there")
+                   min_mac=float(np.min(checked_macs)), mac_threshold=MAC_THRESHOLD, unstable_rpm=unstable)
+    if c["operating_rpm"] is not None and len(c["operating_rpm"]) == 1:
+        summary["operating_speed_rpm"] = float(c["operating_rpm"][0])
+    summary["warnings"] = (notes + op_warnings + band_warnings + non_oscillating_warnings(rpm, freqs, zero)
+                           + mac_warning(rpm, checked_macs))
     if unstable:
         summary["warnings"] += [f"the equilibrium is unstable (an eigenvalue with positive real part) at "
                                f"{len(unstable)} speeds from {min(unstable):.0f} rpm: divergence or flutter"]

@@ -7,10 +7,12 @@ import time
 
 import numpy as np
 
+from pydriver.analyses.clamp_reach import reach_error
 from pydriver.analyses.common import RAD2DEG, REACTION_NAMES, base_summary, joint_columns, reactions, \
     straight_zy_warnings
+from pydriver.analyses.singularity import ClosestApproach
 from pydriver.analyses.statics import equilibrium
-from pydriver.errors import DeckError
+from pydriver.errors import DeckError, RunError
 from pydriver.output import CSV_MAX_VALUES, TimeseriesWriter
 from pydriver.result import Result
 
@@ -104,15 +106,23 @@ def dynamic_analysis(model, run_dir=None) -> Result:
     q0, v0 = start_state(model)
     session = model.core.start(model.solver_settings(), float(times[0]), q0, v0)
     kept, energy, g_max, q_all = [], [], [], []
+    cardan = ClosestApproach(model)
+    q_good, t_good = session.q0, float(times[0])
     try:
         for start in range(0, len(times), CHUNK):
             tk = times[start:start + CHUNK]
-            if start == 0:
-                q, v = session.advance(tk[1:])
-                q = np.column_stack([session.q0, q])
-                v = np.column_stack([session.v0, v])
-            else:
-                q, v = session.advance(tk)
+            try:
+                if start == 0:
+                    q, v = session.advance(tk[1:])
+                    q = np.column_stack([session.q0, q])
+                    v = np.column_stack([session.v0, v])
+                else:
+                    q, v = session.advance(tk)
+            except RunError as exc:
+                # A support on the blade may have carried clamp B out of the cable's reach.
+                raise reach_error(model, q_good, t_good, float(tk[-1]), exc) from exc
+            q_good, t_good = q[:, -1], float(tk[-1])
+            cardan.update(tk, q)
             cols = chunk_columns(model, tk, model.core.sample(tk, q, v))
             if writer is not None:
                 writer.write(cols)
@@ -137,6 +147,11 @@ def dynamic_analysis(model, run_dir=None) -> Result:
                    energy_J={"kinetic": float(last["E_kin_J"][-1]), "potential": float(last["E_pot_J"][-1])},
                    tip_m=[float(last[c][-1]) for c in ("tip_x", "tip_y", "tip_z")],
                    timeseries_format=fmt if writer is not None else "memory")
+    if cardan.active:
+        summary["cardan_singularity"] = cardan.summary()
+        near = cardan.warnings()
+        if near:
+            summary.setdefault("warnings", []).extend(near)
     timeseries = {k: np.concatenate([c[k] for c in kept]) for k in names} if in_memory else None
     result = Result(summary=summary, timeseries=timeseries,
                     extra={"energy": energy, "constraint_violation": g_max,

@@ -28,6 +28,7 @@ import numpy as np
 from pydriver import fatigue
 from pydriver.analyses.common import REACTION_NAMES, joint_geometry
 from pydriver.assembly import bodies
+from pydriver.errors import DeckError
 
 
 def sn_curve(deck) -> fatigue.SNCurve:
@@ -42,13 +43,17 @@ def joint_arc_lengths(model) -> np.ndarray:
     return np.concatenate([[0.0], np.cumsum(lengths)[:-1]])
 
 
+def _components(ts: dict, joint: int, quantity: str, radius: float):
+    """(a, b, scale) of joint j: the history at angle phi is scale (a sin phi - b cos phi)."""
+    if quantity == "strain":
+        return ts[f"kappa_x{joint}_1pm"], ts[f"kappa_y{joint}_1pm"], radius
+    return ts[f"moment_x{joint}_Nm"], ts[f"moment_y{joint}_Nm"], 1.0
+
+
 def circumferential_histories(ts: dict, joint: int, quantity: str, radius: float, points: int):
     """(angles [rad], histories (points, nt)) of the strain or bending moment around joint j."""
     phi = 2.0 * np.pi * np.arange(points) / points
-    if quantity == "strain":
-        a, b, scale = ts[f"kappa_x{joint}_1pm"], ts[f"kappa_y{joint}_1pm"], radius
-    else:
-        a, b, scale = ts[f"moment_x{joint}_Nm"], ts[f"moment_y{joint}_Nm"], 1.0
+    a, b, scale = _components(ts, joint, quantity, radius)
     return phi, scale * (np.sin(phi)[:, None] * a[None, :] - np.cos(phi)[:, None] * b[None, :])
 
 
@@ -56,11 +61,17 @@ def _joint_row(model, ts, j, sn, record, periodic):
     """The damage of joint j: its worst point around the jacket."""
     f = model.deck.values["fatigue"]
     radius = 0.5 * joint_geometry(model)["diameter"][j - 1]
-    phi, hist = circumferential_histories(ts, j, f["sn_quantity"], radius, int(f["circumferential_points"]))
+    points = int(f["circumferential_points"])
+    phi = 2.0 * np.pi * np.arange(points) / points
+    a, b, scale = _components(ts, j, f["sn_quantity"], radius)
     best = None
-    for k in range(len(phi)):
-        cyc = fatigue.cycles(hist[k], periodic=periodic)
-        damage = fatigue.miner_damage(cyc, sn)
+    for k in range(points):
+        # One point's history at a time: memory of one column whatever the point count.
+        cyc = fatigue.cycles(scale * (np.sin(phi[k]) * a - np.cos(phi[k]) * b), periodic=periodic)
+        try:
+            damage = fatigue.miner_damage(cyc, sn)
+        except ValueError as err:
+            _out_of_range(model, f"joint {j}: {err}")
         if best is None or damage > best[0]:
             best = (damage, k, cyc)
     damage, k, cyc = best
@@ -81,6 +92,16 @@ def _record(model, ts, periodic: bool) -> dict:
             "record": f"the run's {duration:g} s, repeated"}
 
 
+def _out_of_range(model, reason: str):
+    """A damage or DEL beyond the float range: an S-N curve far from the loads' scale (units)."""
+    f = model.deck.values["fatigue"]
+    unit = "strain, -" if f["sn_quantity"] == "strain" else "bending moment, Nm"
+    raise DeckError(model.name, "fatigue", "sn_reference_amplitude",
+                    f"{reason}; sn_reference_amplitude = {f['sn_reference_amplitude']:g} ({unit}) with "
+                    f"sn_exponent = {f['sn_exponent']:g} is too far from the loads of this run: check its unit "
+                    "(&fatigue sn_quantity)")
+
+
 def fatigue_of_run(model, ts: dict, periodic: bool) -> tuple[dict, dict]:
     """(summary['fatigue'], fatigue.csv columns) of a run's time series."""
     deck = model.deck
@@ -93,6 +114,8 @@ def fatigue_of_run(model, ts: dict, periodic: bool) -> tuple[dict, dict]:
     for j in range(1, model.n_bodies + 1):
         row = _joint_row(model, ts, j, sn, record, periodic)
         damage_per_hour = row.pop("damage_per_record") * record["per_hour"]
+        if not np.isfinite(damage_per_hour):
+            _out_of_range(model, f"joint {j}: damage per hour exceeds the float range")
         row.update(arc_length_m=float(arc[j - 1]), damage_per_hour=damage_per_hour,
                    life_hours=1.0 / damage_per_hour if damage_per_hour > 0.0 else None)
         for qty, col in (("bending_Nm", f"bending{j}_Nm"), ("strain", f"strain{j}"),

@@ -15,11 +15,13 @@ import time
 
 import numpy as np
 
+from pydriver.analyses.clamp_reach import reach_error
 from pydriver.analyses.common import REACTION_NAMES, base_summary, reactions
 from pydriver.analyses.dynamics import chunk_columns
 from pydriver.analyses.fatigue_loads import fatigue_of_run
+from pydriver.analyses.singularity import ClosestApproach
 from pydriver.analyses.statics import equilibrium
-from pydriver.errors import RunError
+from pydriver.errors import DeckError, RunError
 from pydriver.output import TimeseriesWriter
 from pydriver.result import Result
 
@@ -40,22 +42,45 @@ def _peaks(model, ts: dict) -> dict:
     return out
 
 
+def rotor_period(model) -> float:
+    """The revolution period 2 pi / Omega [s] of the deck's constant rotor speed.
+
+    The schema refuses speeds that are not 0 or at least 1e-3 rpm, but a speed that reaches
+    here as 0 (a denormal rpm times pi/30 underflows) must not divide by zero: a DeckError
+    naming the speed key instead.
+    """
+    omega = float(model.description["rotor"]["params"][0])
+    period = 2.0 * np.pi / omega if omega > 0.0 else np.inf
+    if not np.isfinite(period):
+        group, key = ("rotor", "rpm") if "rotor" in model.deck.groups else ("loads", "rotor_rpm")
+        raise DeckError(model.name, group, key, f"a flight run needs a rotor speed with a finite revolution period, "
+                                                f"got Omega = {omega:g} rad/s")
+    return period
+
+
 def flight_analysis(model, run_dir=None) -> Result:
     """Revolutions to a periodic steady state; the last one in detail."""
     t_wall = time.perf_counter()
     s = model.deck.values["solver"]
     rot = model.description["rotor"]
-    period = 2.0 * np.pi / rot["params"][0]
+    period = rotor_period(model)
     spr, tol = int(s["samples_per_rev"]), float(s["periodic_tol"])
     q0, _, _ = equilibrium(model, t=0.0)
     session = model.core.start(model.solver_settings(), 0.0, q0, np.zeros_like(q0))
     history, prev_cm = [], None
+    cardan = ClosestApproach(model)
     q_last = v_last = None
     try:
         q_start, v_start = session.q0[:, None], session.v0[:, None]
+        cardan.update([0.0], q_start)
         for rev in range(int(s["max_revolutions"])):
             t = period * (rev + np.arange(1, spr + 1) / spr)
-            q, v = session.advance(t)
+            try:
+                q, v = session.advance(t)
+            except RunError as exc:
+                # The blade may have carried clamp B out of the cable's reach: say so.
+                raise reach_error(model, q_start[:, -1], period * rev, float(t[-1]), exc) from exc
+            cardan.update(t, q)
             cm = np.stack([model.core.shape(q[:, k], t[k])["cm"] for k in range(spr)])
             if prev_cm is not None:
                 history.append(float(np.max(np.abs(cm - prev_cm))))
@@ -90,6 +115,15 @@ def flight_analysis(model, run_dir=None) -> Result:
                    max_constraint_violation_m=float(np.max(ts["g_max_m"])) if model.nc else 0.0,
                    reactions=reactions(w_end, model.nc > 0), peaks=_peaks(model, ts),
                    n_samples=int(len(t_last)))
+    if cardan.active:
+        # Over every revolution integrated, not only the last one reported.
+        summary["cardan_singularity"] = entry = cardan.summary()
+        entry["revolution"] = max(1, int(np.ceil(entry["t_s"] / period - 1e-9)))
+        entry["azimuth_deg"] = float(np.degrees(2.0 * np.pi * entry["t_s"] / period + rot["azimuth0"]) % 360.0)
+        warnings = cardan.warnings(when=f"at t = {entry['t_s']:.4g} s (revolution {entry['revolution']}, "
+                                        f"blade azimuth {entry['azimuth_deg']:.1f} deg)")
+        if warnings:
+            summary.setdefault("warnings", []).extend(warnings)
     extra = {"q": q_last.T, "shape_joints": sample["joints"]}
     if "fatigue" in model.deck.groups:
         summary["fatigue"], columns = fatigue_of_run(model, ts, periodic=True)

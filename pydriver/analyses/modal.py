@@ -7,7 +7,8 @@ import time
 import numpy as np
 
 from pydriver.analyses.common import base_summary, equilibrium_table, reactions, straight_zy_warnings
-from pydriver.analyses.statics import equilibrium
+from pydriver.analyses.singularity import equilibrium_report
+from pydriver.analyses.statics import equilibrium, unforced, unforced_note
 from pydriver.result import Result
 
 
@@ -25,6 +26,8 @@ def cm_mode_shapes(model, q, shapes, h: float = 1.0e-6) -> np.ndarray:
 def modal_analysis(model) -> Result:
     """Frequencies, damping ratios and mode shapes about the equilibrium."""
     t0 = time.perf_counter()
+    notes = unforced_note(model)
+    model = unforced(model)
     q, lam, stats = equilibrium(model)
     modes = model.core.modal(q, lam)
     zero = np.zeros((model.nq, 1))
@@ -48,7 +51,10 @@ def modal_analysis(model) -> Result:
         for c, name in enumerate("xyz"):
             table_modes[f"d{name}{j + 1}"] = cm_shapes[3 * j + c] / scale
     table = equilibrium_table(model, sample)
-    warnings = straight_zy_warnings(model, table["beta_deg"])
+    near, near_warnings = equilibrium_report(model, q)
+    if near is not None:
+        summary["cardan_singularity"] = near
+    warnings = notes + straight_zy_warnings(model, table["beta_deg"]) + near_warnings
     if summary["n_zero_stiffness_modes"]:
         warnings.append(f"{summary['n_zero_stiffness_modes']} zero-stiffness (rigid-body) modes: a coordinate "
                         "without a spring and without gravity across it (frequency 0 Hz)")

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pydriver.richardson import richardson
+from pydriver.richardson import TWO_GRID_SAFETY, richardson, richardson_two
 from pydriver.schema import GROUPS
 
 #: Relative size below which a quantity is taken to be zero by symmetry and not extrapolated
@@ -60,6 +60,11 @@ def _scalars(summary: dict) -> dict:
     out = {}
     for i, f in enumerate(summary.get("frequencies_hz", [])[:6]):
         out[f"f{i + 1} [Hz]"] = f
+    # Damped frequencies (joint dampers and the Coriolis coupling of a turning frame): the
+    # resonance margins are judged on them.  An overdamped mode (0 Hz) is not extrapolated.
+    for i, f in enumerate(summary.get("damped_frequencies_hz", [])[:6]):
+        if f > 0.0:
+            out[f"fd{i + 1} [Hz]"] = f
     if summary["analysis"] == "static":
         for support, wrench in summary["reactions"].items():
             for kind, unit in (("F", "N"), ("M", "Nm")):
@@ -86,8 +91,15 @@ def _scalars(summary: dict) -> dict:
     return out
 
 
-def extrapolate(summaries: list, ns: list, expected_order: float) -> dict:
-    """summary['refinement'] from the summaries of the runs at ns = (n, 2n, 4n)."""
+def extrapolate(summaries: list, ns: list, expected_order: float) -> tuple[dict, list]:
+    """summary['refinement'] and its warnings from the summaries of the runs at ns = (n, 2n, 4n ...).
+
+    Three or more levels: Richardson over the last three, with the observed order
+    (:func:`pydriver.richardson.richardson`).  Two levels cannot observe the order: every value
+    is extrapolated with the expected one and its error estimate widened by Roache's two-grid
+    safety factor (:func:`pydriver.richardson.richardson_two`); each entry says
+    ``order_observed = False`` and one warning says it for all.
+    """
     per_run = [_scalars(s) for s in summaries]
     names = [k for k in per_run[-1] if all(k in p for p in per_run)]
     quantities, doubtful = {}, {"oscillating": [], "order": []}
@@ -95,16 +107,23 @@ def extrapolate(summaries: list, ns: list, expected_order: float) -> dict:
         values = [float(p[name]) for p in per_run]
         if max(abs(v) for v in values) <= NEGLIGIBLE * max(1.0, max(abs(float(x)) for x in per_run[-1].values())):
             continue
-        if len(values) < 3:
-            quantities[name] = {"values": values}
+        if len(values) == 2:
+            e = richardson_two(*values, expected_order=expected_order)
+            quantities[name] = {"values": values, "extrapolated": e.extrapolated, "observed_order": e.observed_order,
+                                "order_observed": False, "error_estimate": e.error_estimate, "warning": ""}
             continue
         e = richardson(*values[-3:], expected_order=expected_order)
         quantities[name] = {"values": values, "extrapolated": e.extrapolated, "observed_order": e.observed_order,
-                            "error_estimate": e.error_estimate, "warning": e.warning or ""}
+                            "order_observed": True, "error_estimate": e.error_estimate, "warning": e.warning or ""}
         if e.warning:
             doubtful["oscillating" if "oscillating" in e.warning else "order"].append(name)
     # One warning per kind, naming the quantities (each one's reason is in its entry).
     warnings = []
+    if len(ns) == 2 and quantities:
+        warnings.append(f"refinement: two levels (n = {ns[0]}, {ns[1]}) cannot observe the order of convergence: "
+                        f"every value is extrapolated with the expected order {expected_order:g} (&refinement "
+                        f"expected_order) and its error estimate is {TWO_GRID_SAFETY:g} x the correction; "
+                        "levels = 3 observes the order")
     if doubtful["order"]:
         warnings.append(f"refinement: observed order far from the expected {expected_order:g} (extrapolated with "
                         f"{expected_order:g}; not yet in the asymptotic range?) for " + ", ".join(doubtful["order"]))
@@ -121,7 +140,7 @@ def refinement_table(refinement: dict) -> dict:
     cols = {"quantity": names}
     for i, n in enumerate(refinement["n"]):
         cols[f"n{n}"] = [q[k]["values"][i] for k in names]
-    for key in ("extrapolated", "error_estimate", "observed_order"):
+    for key in ("extrapolated", "error_estimate", "observed_order", "order_observed"):
         cols[key] = [q[k].get(key) for k in names]
     return cols
 

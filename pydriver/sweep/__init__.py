@@ -19,11 +19,19 @@ Execution engines: a local process pool (default, one deck per task), a running 
 scheduler (``dask=ADDRESS``, e.g. started with dask-jobqueue on Slurm/PBS), or a Slurm job
 array script (``write_slurm``).  All three call the same per-deck function, ``run_task``.
 
+A deck that fails is a record (``error.json``); a failure of the machine (a full disk, no
+memory) is not: the point stays without a record, is reported as not run with the reason, and
+the next run of the sweep runs it.  Paths with a control character are refused before anything
+is written.
+
 Modules: :mod:`~pydriver.sweep.grid` (the ``--set`` syntax and grid, checked by the deck
 schema), :mod:`~pydriver.sweep.directory` (lock, manifest, decks), :mod:`~pydriver.sweep.records`
 (one deck's record), :mod:`~pydriver.sweep.table` (``sweep.csv``), :mod:`~pydriver.sweep.plots`,
 :mod:`~pydriver.sweep.engines` (pool, Dask, Slurm), :mod:`~pydriver.sweep.lifeline` (pool
-processes die with the sweep), :mod:`~pydriver.sweep.run` (``run_sweep``).
+processes die with the sweep),
+:mod:`~pydriver.sweep.faults` (failures of the machine), :mod:`~pydriver.sweep.given_paths`
+(paths refused), :mod:`~pydriver.sweep.files` (files written whole),
+:mod:`~pydriver.sweep.run` (``run_sweep``).
 """
 
 from pydriver.sweep.directory import open_sweep, prepare

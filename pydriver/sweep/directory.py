@@ -25,7 +25,9 @@ from pydriver.deckfile import parse_namelist, patch_deck, strip_comments
 from pydriver.errors import DeckError
 from pydriver.run import deck_info
 from pydriver.sweep.errors import SweepError
+from pydriver.sweep.faults import reason, writing
 from pydriver.sweep.files import write_atomic
+from pydriver.sweep.given_paths import checked_path
 from pydriver.sweep.grid import check_against_base, expand_grid, point_changes
 from pydriver.sweep.records import MANIFEST, read_manifest
 from pydriver.sweep.table import TABLE
@@ -49,7 +51,8 @@ def hold_lock(out: Path):
         return
     # O_CLOEXEC: no child may inherit the lock (pool workers come from the forkserver, which
     # gets no descriptors of this process, and Dask and Slurm workers are other processes).
-    fd = os.open(out / LOCK, os.O_RDWR | os.O_CREAT | getattr(os, "O_CLOEXEC", 0), 0o666)
+    with writing(out / LOCK):
+        fd = os.open(out / LOCK, os.O_RDWR | os.O_CREAT | getattr(os, "O_CLOEXEC", 0), 0o666)
     with os.fdopen(fd, "rb") as fh:
         try:
             fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -92,12 +95,16 @@ def plan(base, sets: list[str]) -> dict:
     Raises
     ------
     SweepError
-        Missing base deck, bad option (named), or an invalid first grid point.
+        Missing or unreadable base deck, a base deck path with a control character, bad
+        option (named), or an invalid first grid point.
     """
-    base = Path(base).resolve()
+    base = checked_path(base, "base deck")
     if not base.is_file():
         raise SweepError(f"base deck '{base}' not found")
-    base_text = base.read_text()
+    try:
+        base_text = base.read_text()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SweepError(f"base deck '{base}': cannot read it: {reason(exc)}") from None
     params, points, scales = expand_grid(list(sets))
     try:
         base_nml = parse_namelist(strip_comments(base_text), base.name)
@@ -116,7 +123,7 @@ def plan(base, sets: list[str]) -> dict:
         "python": sys.executable,
     }
     first = manifest["points"][0]
-    with tempfile.TemporaryDirectory() as tmp:
+    with writing(tempfile.gettempdir()), tempfile.TemporaryDirectory() as tmp:
         probe = Path(tmp) / f"{first['id']}.nml"
         try:
             probe.write_text(deck_text(base, params, first["values"], first["id"]))
@@ -186,14 +193,18 @@ def open_sweep(base, sets: list[str], out):
     ------
     SweepError
         Bad option (named), first grid point not a valid deck, another sweep running in
-        ``out``, or ``out`` holding a different sweep or other sweep files.
+        ``out``, ``out`` holding a different sweep or other sweep files, ``out`` or ``base``
+        with a control character, or a file of the sweep that cannot be written (named, with
+        the reason).
     """
+    out = checked_path(out, "--out")
     manifest = plan(base, sets)            # nothing is written before this passes
-    out = Path(out).resolve()
-    out.mkdir(parents=True, exist_ok=True)
+    with writing(out):
+        out.mkdir(parents=True, exist_ok=True)
     with hold_lock(out):
-        manifest = _adopt(out, manifest)
-        _write_decks(out, Path(base).resolve(), manifest)
+        with writing(out):
+            manifest = _adopt(out, manifest)
+            _write_decks(out, Path(base).resolve(), manifest)
         yield manifest
 
 

@@ -3,6 +3,21 @@
 All three run the same per-deck task, :func:`pydriver.sweep.records.run_task`, on the decks
 of a prepared sweep directory.  The pool and Dask engines take ``tasks`` as
 ``(id, deck, run_dir)`` tuples and report each finished task to ``done(id, exception, future)``.
+
+The Slurm script ``DIR/sweep.slurm`` is read by two programs, each with its own rules, and
+every path is written for the one that reads its line:
+
+* bash runs the commands: there every path is quoted with :func:`shlex.quote`.
+* sbatch reads the ``#SBATCH`` lines itself, before any shell (``get_argument`` in Slurm's
+  ``src/sbatch/opt.c``): it splits them at white space, groups quoted text, takes a backslash
+  as an escape and an unquoted ``#`` as the start of a comment (older versions: a ``#`` inside
+  quotes too), and expands nothing.  A path there is put in double quotes with ``\\``, ``"``
+  and ``#`` escaped.  The ``--output`` value is also a filename pattern: ``%%`` stands for
+  ``%``, and a backslash anywhere turns every replacement off (``%A_%a`` would stay as it is),
+  so an ``--out`` with a backslash is refused.
+
+No path may hold a control character (:mod:`pydriver.sweep.given_paths`): a newline in a
+comment or ``#SBATCH`` line starts a new line, which bash runs as a command (issue 20).
 """
 
 from __future__ import annotations
@@ -10,6 +25,7 @@ from __future__ import annotations
 import contextlib
 import itertools
 import os
+import re
 import shlex
 import sys
 from pathlib import Path
@@ -17,7 +33,9 @@ from pathlib import Path
 from pydriver.sweep import lifeline
 from pydriver.sweep.directory import open_sweep
 from pydriver.sweep.errors import SweepError
+from pydriver.sweep.faults import writing
 from pydriver.sweep.files import write_atomic
+from pydriver.sweep.given_paths import checked_path, refuse_control_characters
 from pydriver.sweep.records import read_record, run_task
 
 # Thread-count variables of the BLAS libraries numpy and the Fortran core may link.
@@ -125,6 +143,9 @@ def run_dask(tasks: list, address: str, done) -> None:
         client.close()
 
 
+SCRIPT = "sweep.slurm"
+
+
 def _array_spec(indices: list[int]) -> str:
     """Slurm --array text for a sorted index list: 0-23, or 3,7-9 for a partial resume."""
     parts = []
@@ -132,6 +153,55 @@ def _array_spec(indices: list[int]) -> str:
         g = [i for _, i in grp]
         parts.append(str(g[0]) if len(g) == 1 else f"{g[0]}-{g[-1]}")
     return ",".join(parts)
+
+
+def sbatch_quote(value: str) -> str:
+    """``value`` as one argument of an ``#SBATCH`` line (sbatch's own parsing: module doc).
+
+    Parameters
+    ----------
+    value : str
+        The argument or option value, e.g. ``/a b/%A.out``; no control characters.
+
+    Returns
+    -------
+    str
+        ``value`` in double quotes, with ``\\``, ``"`` and ``#`` escaped by a backslash: sbatch
+        reads it back as ``value``, also after ``--output=`` (quotes may open mid-argument).
+    """
+    return '"' + re.sub(r'([\\"#])', r"\\\1", value) + '"'
+
+
+def output_pattern(directory: Path) -> str:
+    """The ``#SBATCH --output`` filename pattern of the array tasks' logs in ``directory``.
+
+    Parameters
+    ----------
+    directory : Path
+        Absolute directory of the logs (``DIR/slurm``).
+
+    Returns
+    -------
+    str
+        ``directory/%A_%a.out`` with every ``%`` of ``directory`` doubled (Slurm reads ``%%``
+        as ``%``), still to be quoted for sbatch (:func:`sbatch_quote`).
+
+    Raises
+    ------
+    SweepError
+        ``directory`` holds a backslash: Slurm would then leave ``%A_%a`` unexpanded.
+    """
+    text = str(directory)
+    if "\\" in text:
+        raise SweepError(f"--out {text}: a backslash in the path cannot be written into the "
+                         "#SBATCH --output line (Slurm then expands no %A_%a and drops the "
+                         "backslashes); choose a path without one")
+    return text.replace("%", "%%") + "/%A_%a.out"
+
+
+def _job_name(out: Path) -> str:
+    # Only letters, digits and ._-: a job name is cosmetic, and this one needs no quoting.
+    return "rc-sweep-" + re.sub(r"[^A-Za-z0-9_.-]", "_", out.name)
 
 
 def write_slurm(base, sets: list[str], out) -> tuple[Path, list[str]]:
@@ -152,41 +222,49 @@ def write_slurm(base, sets: list[str], out) -> tuple[Path, list[str]]:
     script : Path
         ``DIR/sweep.slurm``.
     commands : list of str
-        The ``sbatch`` command and the aggregation command to run afterwards.
+        The ``sbatch`` command and the aggregation command to run afterwards (shell-quoted).
 
     Raises
     ------
     SweepError
-        As ``run_sweep``.
+        As ``run_sweep``; also an ``--out`` with a backslash, or an interpreter path with a
+        control character.  Every path is checked before anything is written.
     """
-    out = Path(out).resolve()
+    out = checked_path(out, "--out")
+    logs = out / "slurm"
+    output = output_pattern(logs)
+    q = shlex.quote
+    py = sys.executable
+    refuse_control_characters(py, "Python interpreter")
+    venv = ""
+    if sys.prefix != sys.base_prefix:
+        activate = str(Path(sys.prefix) / "bin" / "activate")
+        refuse_control_characters(activate, "virtual environment")
+        venv = f"source {q(activate)}\n"
+    path = out / SCRIPT
+    collect_cmd = f"{q(py)} -m pydriver sweep-collect {q(str(out))}"
+    submit_cmd = f"sbatch {q(str(path))}"
     with open_sweep(base, sets, out) as manifest:
         todo = [i for i, p in enumerate(manifest["points"])
                 if read_record(out / "runs" / p["id"]) is None]
-        (out / "slurm").mkdir(exist_ok=True)
-        q = shlex.quote
-        py = sys.executable
-        venv = ""
-        if sys.prefix != sys.base_prefix:
-            venv = f"source {q(str(Path(sys.prefix) / 'bin' / 'activate'))}\n"
-        collect_cmd = f"{q(py)} -m pydriver sweep-collect {q(str(out))}"
         array = _array_spec(todo) if todo else "0"
         script = f"""#!/bin/bash
 # rotorcable sweep {out.name}: one deck per array task ({len(todo)} of {len(manifest['points'])} points).
 # Written by `python -m pydriver sweep --slurm`; add the #SBATCH lines your site needs
 # (--partition, --account, --time) before submitting.  DIR must be on a shared file system.
-#   submit:                 sbatch {out / 'sweep.slurm'}
+#   submit:                  {submit_cmd}
 #   when all tasks are done: {collect_cmd}
-#SBATCH --job-name=rc-sweep-{out.name}
+#SBATCH --job-name={_job_name(out)}
 #SBATCH --array={array}
 #SBATCH --ntasks=1
 #SBATCH --cpus-per-task=1
-#SBATCH --output={out / 'slurm'}/%A_%a.out
+#SBATCH --output={sbatch_quote(output)}
 set -eo pipefail
 {venv}# One core per task: keep BLAS single-threaded.
 export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1
 {q(py)} -m pydriver sweep-task {q(str(out))} "$SLURM_ARRAY_TASK_ID"
 """
-        path = out / "sweep.slurm"
-        write_atomic(path, script, mode=0o777)       # executable, as far as the umask allows
-    return path, [f"sbatch {q(str(path))}", collect_cmd]
+        with writing(path):
+            logs.mkdir(exist_ok=True)
+            write_atomic(path, script, mode=0o777)   # executable, as far as the umask allows
+    return path, [submit_cmd, collect_cmd]

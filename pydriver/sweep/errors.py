@@ -2,4 +2,5 @@
 
 
 class SweepError(ValueError):
-    """A sweep that cannot start: bad ``--set`` option, first deck invalid, directory mismatch."""
+    """A sweep that cannot start or cannot write its files: bad ``--set`` option, first deck
+    invalid, directory mismatch, a refused path, a full disk."""

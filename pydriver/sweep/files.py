@@ -10,6 +10,7 @@ for every thread of the process for a moment; creating with the mode lets the ke
 
 from __future__ import annotations
 
+import contextlib
 import os
 import secrets
 from pathlib import Path
@@ -27,6 +28,9 @@ def _hidden_name(directory: Path, name: str) -> Path:
 def write_atomic(path, data, mode: int = 0o666) -> None:
     """Write ``data`` (str as UTF-8, or bytes) to ``path``, replacing it in one step.
 
+    On any failure (a full disk in the middle of the data, say) the temporary file is removed
+    and ``path`` is left as it was: whole and old, or absent.
+
     Parameters
     ----------
     path : str or Path
@@ -35,24 +39,36 @@ def write_atomic(path, data, mode: int = 0o666) -> None:
         The whole content.
     mode : int
         Permissions before the umask (0o777 for a script).
+
+    Raises
+    ------
+    OSError
+        The file cannot be written; its ``filename`` is ``path``, not the hidden temporary
+        name, so that a message names the file the user knows.
     """
     path = Path(path)
     raw = data.encode("utf-8") if isinstance(data, str) else data
-    for _ in range(_ATTEMPTS):
-        tmp = _hidden_name(path.parent, path.name)
-        try:
-            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | _CLOEXEC, mode)
-        except FileExistsError:
-            continue
-        break
-    else:
-        raise FileExistsError(f"{path.parent}: no free temporary name for {path.name}")
+    tmp = None
     try:
+        for _ in range(_ATTEMPTS):
+            candidate = _hidden_name(path.parent, path.name)
+            try:
+                fd = os.open(candidate, os.O_WRONLY | os.O_CREAT | os.O_EXCL | _CLOEXEC, mode)
+            except FileExistsError:
+                continue
+            tmp = candidate
+            break
+        else:
+            raise FileExistsError(f"{path.parent}: no free temporary name for {path.name}")
         with os.fdopen(fd, "wb") as fh:
             fh.write(raw)
         os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
+    except BaseException as exc:
+        if tmp is not None:
+            with contextlib.suppress(OSError):      # the disk may refuse this too (EROFS, EIO)
+                tmp.unlink(missing_ok=True)
+        if isinstance(exc, OSError) and exc.errno is not None:
+            raise OSError(exc.errno, exc.strerror or os.strerror(exc.errno), str(path)) from exc
         raise
 
 

@@ -15,6 +15,7 @@ import dataclasses
 import itertools
 import math
 import re
+import unicodedata
 
 import numpy as np
 
@@ -163,6 +164,9 @@ def parse_set(spec: str) -> tuple[str, list[str], str]:
         Malformed option, unknown group or key, a whole vector, or a value that is not one
         value of the key's type; the message starts with ``--set SPEC``.
     """
+    if any(unicodedata.category(c) in ("Cc", "Zl", "Zp") for c in spec):
+        # A newline in a value would become a line of the point's deck (issue 20).
+        raise SweepError(f"--set {spec!r}: a control character (newline, tab, ...) is refused")
     if "=" not in spec:
         raise SweepError(f"--set {spec}: expected GROUP.KEY=VALUES")
     name, text = (s.strip() for s in spec.split("=", 1))

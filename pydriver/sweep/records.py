@@ -5,6 +5,8 @@ A record is the directory of one finished deck: the files of ``python -m pydrive
 temporary directory and renamed to ``runs/<id>`` when complete, so a sweep killed at any
 moment leaves either a whole record or none, and a rerun skips the ids that have one.
 :func:`run_task` makes one record; it is the task of every engine (local pool, Dask, Slurm).
+A failure of the machine (a full disk, :mod:`pydriver.sweep.faults`) makes no record: the
+point is run again by the next run of the sweep.
 """
 
 from __future__ import annotations
@@ -16,7 +18,9 @@ from pathlib import Path
 
 from pydriver.run import run_deck
 from pydriver.sweep.errors import SweepError
+from pydriver.sweep.faults import is_environmental, not_run_reason
 from pydriver.sweep.files import make_hidden_dir, write_atomic
+from pydriver.sweep.given_paths import checked_path
 
 MANIFEST = "sweep.json"
 
@@ -66,11 +70,18 @@ def run_task(deck, run_dir) -> dict:
         ``{"id", "error", "skipped"}``: ``error`` is None or ``"DeckError: ..."`` /
         ``"RunError: ..."``; ``skipped`` is True when a record already existed.
 
+    Raises
+    ------
+    OSError, MemoryError
+        A failure of the machine (:func:`pydriver.sweep.faults.is_environmental`: a full
+        disk, a read-only file system, ...), or the record directory cannot be made or
+        renamed.  No record is left, so the next run of the sweep runs the deck again.
+
     Notes
     -----
-    Any exception of the run is recorded in ``error.json`` instead of raised, so one failed
-    deck does not stop the others.  If two tasks finish the same id (a requeued Slurm task),
-    the first record stays and the second is discarded.
+    Any other exception of the run is recorded in ``error.json`` instead of raised, so one
+    failed deck does not stop the others.  If two tasks finish the same id (a requeued Slurm
+    task), the first record stays and the second is discarded.
     """
     deck, run_dir = Path(deck), Path(run_dir)
     done = read_record(run_dir)
@@ -83,6 +94,8 @@ def run_task(deck, run_dir) -> dict:
             run_deck(deck, out=tmp)
             error = None
         except Exception as exc:  # noqa: BLE001 (recorded, not raised: see Notes)
+            if is_environmental(exc):
+                raise           # the machine failed, not the deck: no record (faults module)
             error = f"{type(exc).__name__}: {exc}"
             write_atomic(tmp / "error.json", json.dumps(
                 {"id": run_dir.name, "deck": str(deck), "error": error}, indent=1) + "\n")
@@ -117,12 +130,22 @@ def run_point(out, index: int) -> dict:
     Raises
     ------
     SweepError
-        ``index`` outside the grid.
+        ``index`` outside the grid, ``out`` with a control character, or the point not run
+        for a failure of the machine (it has no record then, so running the task again runs
+        it).
     """
-    out = Path(out).resolve()
+    out = checked_path(out, "sweep directory")
     manifest = read_manifest(out)
     points = manifest["points"]
     if not 0 <= index < len(points):
         raise SweepError(f"{out}: task index {index} outside the grid 0-{len(points) - 1}")
     id_ = points[index]["id"]
-    return run_task(out / "decks" / f"{id_}.nml", out / "runs" / id_)
+    try:
+        return run_task(out / "decks" / f"{id_}.nml", out / "runs" / id_)
+    except Exception as exc:
+        # run_task raises only failures of the machine and record directories it cannot
+        # make: either way the point has no record.
+        if not (isinstance(exc, OSError) or is_environmental(exc)):
+            raise
+        raise SweepError(f"{id_} not run: {not_run_reason(exc)}; it has no record, so running "
+                         "this task (or the sweep) again runs it") from exc

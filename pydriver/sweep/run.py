@@ -8,8 +8,13 @@ from pathlib import Path
 
 from pydriver.sweep.directory import open_sweep
 from pydriver.sweep.engines import default_jobs, run_dask, run_pool
+from pydriver.sweep.errors import SweepError
+from pydriver.sweep.faults import not_run_reason
+from pydriver.sweep.given_paths import checked_path
 from pydriver.sweep.records import read_record
 from pydriver.sweep.table import SweepStatus, collect
+
+_LOST_SHOWN = 3          # points named in an error message; the rest are counted
 
 
 def _progress(total, initial, enabled):
@@ -78,17 +83,19 @@ def run_sweep(base, sets: list[str], out, *, jobs: int | None = None, dask: str 
     Raises
     ------
     SweepError
-        Bad option, invalid first grid point, another sweep running in ``out``, or ``out``
-        holding another sweep.
+        Bad option, invalid first grid point, another sweep running in ``out``, ``out``
+        holding another sweep, a path with a control character, or a file of the sweep that
+        cannot be written (named, with the reason: e.g. no space left on device).
 
     Notes
     -----
     Ctrl-C stops the sweep cleanly: decks not started are cancelled, the ones running
     finish, ``sweep.csv`` is written for what finished and ``interrupted`` is set.  A hard
     kill loses at most the decks in flight (the pool's workers die with the sweep); their
-    records are simply missing and the next run makes them.
+    records are simply missing and the next run makes them.  So are those of decks stopped
+    by a failure of the machine (a full disk): they are in ``lost`` with the reason.
     """
-    out = Path(out).resolve()
+    out = checked_path(out, "--out")
     with open_sweep(base, sets, out) as manifest:
         tasks, skipped = _tasks(out, manifest, retry_failed)
         lost = {}
@@ -96,7 +103,7 @@ def run_sweep(base, sets: list[str], out, *, jobs: int | None = None, dask: str 
 
         def done(id_, exc, fut):
             if exc is not None:
-                lost[id_] = f"{type(exc).__name__}: {exc}"
+                lost[id_] = not_run_reason(exc)
             if bar is not None:
                 bar.update(1)
         interrupted = False
@@ -110,7 +117,16 @@ def run_sweep(base, sets: list[str], out, *, jobs: int | None = None, dask: str 
         finally:
             if bar is not None:
                 bar.close()
-        status = collect(out, plots=plots, report=report)
+        try:
+            status = collect(out, plots=plots, report=report)
+        except SweepError as exc:
+            if not lost:
+                raise
+            # The table could not be written either (the same full disk, usually): say which
+            # points did not run, since no status line will.
+            shown = "; ".join(f"{i}: {m}" for i, m in list(lost.items())[:_LOST_SHOWN])
+            more = f"; ... ({len(lost)} in all)" if len(lost) > _LOST_SHOWN else ""
+            raise SweepError(f"{exc}; grid points not run: {shown}{more}") from exc
     # From the records, not the callbacks: decks that finish while an interrupted pool shuts
     # down count too.
     have = set(skipped) | set(status.missing)

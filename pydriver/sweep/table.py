@@ -10,12 +10,15 @@ from __future__ import annotations
 import csv
 import io
 import math
+import shlex
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from pydriver.sweep.faults import writing
 from pydriver.sweep.files import write_atomic
+from pydriver.sweep.given_paths import checked_path
 from pydriver.sweep.records import read_manifest, read_record
 
 TABLE = "sweep.csv"
@@ -229,25 +232,38 @@ def collect(out, plots: bool = True, report: bool = False) -> SweepStatus:
     SweepStatus
         With ``failed`` and ``missing`` filled in.
 
+    Raises
+    ------
+    SweepError
+        ``out`` with a control character, or ``sweep.csv``, a plot or the report that cannot
+        be written (named, with the reason: e.g. no space left on device).  A file that
+        cannot be written is left as it was, whole (:func:`pydriver.sweep.files.write_atomic`).
+
     Notes
     -----
     ``sweep.csv`` is rebuilt from ``runs/*`` each time and replaced atomically, so it always
     holds exactly one row per finished run, sorted by id.  Safe to run while tasks are still
     running (e.g. a Slurm array): it shows what has finished.
     """
-    out = Path(out).resolve()
+    out = checked_path(out, "sweep directory")
     manifest = read_manifest(out)
     columns, rows = sweep_rows(out, manifest)
-    write_atomic(out / TABLE, table_csv_text(columns, rows))
+    # The records stay whatever fails here; the table, plots and report are made from them.
+    hint = (f" (the records in {out / 'runs'} are kept: once fixed, run "
+            f"`python -m pydriver sweep-collect {shlex.quote(str(out))}`)")
+    with writing(out / TABLE, hint):
+        write_atomic(out / TABLE, table_csv_text(columns, rows))
     done = {r["id"] for r in rows}
     status = SweepStatus(out=out, n_points=len(manifest["points"]),
                          failed=[r["id"] for r in rows if r["error"]],
                          missing=[p["id"] for p in manifest["points"] if p["id"] not in done])
     if plots and rows:
         from pydriver.sweep.plots import plot_sweep  # matplotlib only when drawing
-        plot_sweep(out, rows_to_table(columns, rows, manifest["params"]), manifest["params"],
-                   manifest.get("scales", {}))
+        with writing(out / "plots", hint):
+            plot_sweep(out, rows_to_table(columns, rows, manifest["params"]), manifest["params"],
+                       manifest.get("scales", {}))
     if report:
         from pydriver.sweep.report import sweep_report_html
-        write_atomic(out / "report.html", sweep_report_html(out, manifest, columns, rows, status))
+        with writing(out / "report.html", hint):
+            write_atomic(out / "report.html", sweep_report_html(out, manifest, columns, rows, status))
     return status

@@ -1,0 +1,213 @@
+"""Resonance margins: how far each mode sits from the rotor harmonics at the operating speed.
+
+A blade-mounted cable is excited at the harmonics k Omega (k = 1, 2, ... per revolution) of the
+rotor speed: the blade's flap, lag and pitch motion and the periodic air load are Fourier
+series in the azimuth.  A design keeps every mode a margin away from every harmonic.  The
+default of 10 % of the harmonic's frequency is a common rule of thumb of rotorcraft frequency
+placement (assumed here, not from the thesis; the requirement of issue 21); a design office
+sets its own with ``&resonance margin_percent``.
+
+For mode i with frequency f_i and harmonic k at speed Omega (rev/s = rpm/60), the margin is
+
+    m_ik = |f_i - k Omega| / (k Omega)   (in percent),
+
+the nearest harmonic is the k of the smallest m_ik (k = 1 ... harmonics), and with an error
+bar e_i (Richardson, ``&refinement``) the worst margin is that of the frequency within
+f_i +- e_i nearest the harmonic (0 when the band contains it).  A mode is flagged when its
+worst margin is below the required one.  Modes far above the highest harmonic (f > (K + 1)
+Omega) are not excited and are not listed.
+
+The frequencies are those of the linearised motion about the equilibrium at the operating
+speed: damped frequencies, so that the Coriolis coupling of the turning frame is in them;
+an overdamped mode does not oscillate and has no resonance.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def harmonic_margin(f_hz: float, error_hz: float, rpm: float, harmonics: int) -> dict:
+    """The nearest harmonic of one frequency and its margins.
+
+    Parameters
+    ----------
+    f_hz : float
+        Mode frequency [Hz] (> 0).
+    error_hz : float
+        Its error bar [Hz] (0: none).
+    rpm : float
+        Rotor speed [rpm] (> 0).
+    harmonics : int
+        Harmonics considered, 1/rev ... harmonics/rev.
+
+    Returns
+    -------
+    dict
+        ``harmonic`` k, ``harmonic_hz``, ``margin_percent`` and ``worst_margin_percent``.
+    """
+    rev = rpm / 60.0
+    ks = np.arange(1, harmonics + 1)
+    h = ks * rev
+    margins = np.abs(f_hz - h) / h
+    i = int(np.argmin(margins))
+    # Worst case within the error bar: the distance from the band [f - e, f + e] to k Omega.
+    worst = np.maximum(np.abs(f_hz - h) - abs(error_hz), 0.0) / h
+    return {"harmonic": int(ks[i]), "harmonic_hz": float(h[i]), "margin_percent": float(100.0 * margins[i]),
+            "worst_margin_percent": float(100.0 * np.min(worst)),
+            "worst_harmonic": int(ks[int(np.argmin(worst))])}
+
+
+def mode_margins(modes: list, rpm_values: list, harmonics: int, required_percent: float) -> list:
+    """One row per (mode, operating speed) for modes within reach of the harmonics.
+
+    Parameters
+    ----------
+    modes : list of (int, callable or float, float)
+        (mode number, frequency [Hz] or a function of rpm giving it, error bar [Hz]); a
+        frequency <= 0 (overdamped or zero-stiffness mode) is skipped.
+    rpm_values : list of float
+        Operating speeds [rpm].
+    harmonics : int
+    required_percent : float
+        The required margin [%].
+    """
+    rows = []
+    for rpm in rpm_values:
+        if not rpm > 0.0:
+            continue
+        top = (harmonics + 1) * rpm / 60.0
+        for mode, freq, err in modes:
+            f = float(freq(rpm) if callable(freq) else freq)
+            if not f > 0.0 or f > top or not math.isfinite(f):
+                continue
+            row = {"mode": int(mode), "operating_rpm": float(rpm), "frequency_hz": f,
+                   "error_hz": float(err) if err is not None else None}
+            row.update(harmonic_margin(f, err or 0.0, rpm, harmonics))
+            row["within_margin"] = bool(row["worst_margin_percent"] < required_percent)
+            rows.append(row)
+    return rows
+
+
+def summary_block(rows: list, rpm_values: list, harmonics: int, required_percent: float, about: str) -> dict:
+    """summary['resonance']: the rows, the closest mode and the required margin."""
+    block = {"operating_rpm": [float(r) for r in rpm_values], "harmonics": int(harmonics),
+             "required_margin_percent": float(required_percent), "modes_about": about, "modes": rows}
+    if rows:
+        closest = min(rows, key=lambda r: r["worst_margin_percent"])
+        block["closest"] = dict(closest)
+    block["flagged"] = [r for r in rows if r["within_margin"]]
+    return block
+
+
+def warnings_of(block: dict) -> list[str]:
+    """One warning per flagged mode, in words a designer reads."""
+    out = []
+    for r in block["flagged"]:
+        err = f" +- {r['error_hz']:.2g}" if r.get("error_hz") else ""
+        out.append(f"resonance: mode {r['mode']} at {r['frequency_hz']:.2f}{err} Hz is within "
+                   f"{r['worst_margin_percent']:.1f} % of {r['worst_harmonic']}/rev "
+                   f"({r['worst_harmonic'] * r['operating_rpm'] / 60.0:.2f} Hz at {r['operating_rpm']:g} rpm); "
+                   f"the required margin is {block['required_margin_percent']:g} % (&resonance margin_percent)")
+    return out
+
+
+def table_of(block: dict) -> dict:
+    """resonance.csv columns."""
+    rows = block["modes"]
+    keys = ["mode", "operating_rpm", "frequency_hz", "error_hz", "harmonic", "harmonic_hz", "margin_percent",
+            "worst_margin_percent", "within_margin"]
+    if all(r["error_hz"] is None for r in rows):
+        keys.remove("error_hz")                   # a single n: no error bars (not zero ones)
+    return {k: [(float(r[k]) if isinstance(r[k], bool) else r[k]) for r in rows] for k in keys}
+
+
+# -- a run's margins ---------------------------------------------------------------------------
+
+def operating_speeds(model) -> list[float]:
+    """The operating speed(s) [rpm]: ``&resonance operating_rpm``, else the deck's constant rotor
+    speed (flight, modal in the hub frame), else a Campbell deck's operating range."""
+    deck = model.deck
+    if deck["resonance.operating_rpm"] is not None:
+        return [float(x) for x in deck["resonance.operating_rpm"]]
+    if model.analysis == "campbell":
+        op = deck["campbell.operating_rpm"]
+        return [float(x) for x in op] if op is not None else []
+    if "rotor" in deck.groups:
+        if deck["rotor.profile"] == "constant" and deck["rotor.rpm"]:
+            return [float(deck["rotor.rpm"])]
+        return []
+    if deck.has("loads.rotor_rpm") and deck["loads.rotor_rpm"] > 0.0:
+        return [float(deck["loads.rotor_rpm"])]
+    return []
+
+
+def _harmonics(model) -> int:
+    deck = model.deck
+    if model.analysis == "campbell" and not deck.has("resonance.harmonics"):
+        return int(deck["campbell.harmonics"])
+    return int(deck["resonance.harmonics"])
+
+
+def _modal_modes(summary: dict) -> list:
+    """(mode, damped frequency, error bar) of a modal or flight summary; the extrapolated value
+    and its error where the run was refined."""
+    refined = (summary.get("refinement") or {}).get("quantities", {})
+    out = []
+    for i, f in enumerate(summary.get("damped_frequencies_hz", [])):
+        r = refined.get(f"fd{i + 1} [Hz]")
+        if r is not None and "extrapolated" in r:
+            out.append((i + 1, r["extrapolated"], r["error_estimate"]))
+        else:
+            out.append((i + 1, f, None))
+    return out
+
+
+def _campbell_rows(result, rpm_values, harmonics, required):
+    """A Campbell run's margins: at one operating speed, or the least over an operating range
+    (sampled finely between the grid speeds; a crossing inside the range is a margin of 0)."""
+    c = result.extra["campbell"]
+    grid, freqs = np.asarray(c["rpm"], float), np.asarray(c["f"], float)
+    if len(rpm_values) == 1:
+        speeds = np.asarray(rpm_values, float)
+    else:
+        lo, hi = min(rpm_values), max(rpm_values)
+        speeds = np.union1d(np.linspace(lo, hi, 401), grid[(grid >= lo) & (grid <= hi)])
+    modes = [(i + 1, (lambda r, i=i: np.interp(r, grid, freqs[:, i])), None) for i in range(freqs.shape[1])]
+    rows = mode_margins(modes, list(speeds), harmonics, required)
+    least = {}
+    for r in rows:
+        if r["mode"] not in least or r["worst_margin_percent"] < least[r["mode"]]["worst_margin_percent"]:
+            least[r["mode"]] = r
+    return [least[m] for m in sorted(least)]
+
+
+def attach_margins(model, result) -> None:
+    """Add summary['resonance'], its warnings and resonance.csv to a modal, Campbell or flight
+    result (after refinement, so that refined frequencies carry their error bars)."""
+    if model.analysis not in ("modal", "campbell", "flight"):
+        return
+    rpm_values = operating_speeds(model)
+    harmonics = _harmonics(model)
+    required = float(model.deck["resonance.margin_percent"])
+    about = {"modal": "the equilibrium of the deck",
+             "flight": "the hover equilibrium at the flight's rotor speed and n (blade at its mean angles, "
+                       "no stream)",
+             "campbell": "the equilibrium at each speed of the diagram"}[model.analysis]
+    if not rpm_values:
+        result.summary["resonance"] = {"operating_rpm": [], "note": "no operating speed: the rotor does not "
+                                       "turn; set &resonance operating_rpm to check the margins"}
+        return
+    if model.analysis == "campbell":
+        rows = _campbell_rows(result, rpm_values, harmonics, required)
+    else:
+        rows = mode_margins(_modal_modes(result.summary), rpm_values, harmonics, required)
+    block = summary_block(rows, rpm_values, harmonics, required, about)
+    result.summary["resonance"] = block
+    warns = warnings_of(block)
+    if warns:
+        result.summary.setdefault("warnings", []).extend(warns)
+    if rows:
+        result.extra.setdefault("tables", {})["resonance.csv"] = table_of(block)
