@@ -47,10 +47,26 @@ def rotor(deck: Deck) -> dict | None:
 
 
 def blade_azimuth0(deck: Deck, rot: dict, clamp_position) -> float:
-    """Blade azimuth at t = 0 [rad]: the deck's, or that of clamp B about the rotor axis."""
+    """Blade azimuth at t = 0 [rad], measured from downstream (-x) in the sense of rotation.
+
+    The deck's ``azimuth0_deg``; else the direction of the blade's pitch (feathering) axis in
+    the rotor plane, pointing away from the rotor centre (the blade's own azimuth: the harmonics
+    of the flap, lag and pitch series are those of the blade, issue 21 item 5); else, for a
+    pitch axis along the rotor axis, the azimuth of clamp B about the rotor axis (the earlier
+    default, 8.9 deg off the blade's azimuth in the main job).
+    """
     if deck.has("blade.azimuth0_deg"):
         return deck["blade.azimuth0_deg"] * DEG
-    u = np.asarray(clamp_position, float) - rot["centre"]
+    centre = np.asarray(rot["centre"], float)
+    if "blade" in deck.groups:
+        axis = np.asarray(deck["blade.pitch_axis"], float)[:2]
+        hinge = deck["blade.pitch_hinge"] if deck.has("blade.pitch_hinge") else deck["blade.flap_hinge"]
+        outward = np.asarray(hinge, float)[:2] - centre[:2]
+        if np.linalg.norm(axis) > 1e-9 * np.linalg.norm(deck["blade.pitch_axis"]):
+            if np.dot(axis, outward) < 0.0:
+                axis = -axis
+            return float(np.mod(np.arctan2(axis[1], axis[0]) - np.pi, 2.0 * np.pi))
+    u = np.asarray(clamp_position, float) - centre
     return float(np.mod(np.arctan2(u[1], u[0]) - np.pi, 2.0 * np.pi))
 
 

@@ -284,6 +284,7 @@ def _plots(result, out: Path):
         yield _save(fig, out, "shape.png")
     if "fatigue.csv" in result.extra.get("tables", {}):
         yield from plot_envelopes(result, out)
+    yield from plot_flagged_modes(result, out)
     if s["analysis"] == "flight":
         yield from plot_flight(result, out)
         return
@@ -329,6 +330,44 @@ def _plots(result, out: Path):
         ax.set_xlabel("mode [-]"); ax.set_ylabel("f [Hz]"); ax.grid(True); ax.legend()
         fig.suptitle(f"{s['case']}: natural frequencies")
         yield _save(fig, out, "frequencies.png")
+
+
+def _cm_table(table: dict, shift=None) -> dict:
+    """A table of centres of mass only (the polyline through the CMs), optionally displaced."""
+    p = np.column_stack([table["x_m"], table["y_m"], table["z_m"]]).astype(float)
+    if shift is not None:
+        p = p + shift
+    return {"x_m": p[:, 0], "y_m": p[:, 1], "z_m": p[:, 2]}
+
+
+def plot_flagged_modes(result, out: Path, most: int = 3):
+    """The shape of each mode within the resonance margin (at most ``most``): the equilibrium
+    through the centres of mass and the mode's displacement, scaled to a tenth of the cable's
+    extent (a mode shape has no amplitude of its own)."""
+    block = result.summary.get("resonance") or {}
+    flagged = sorted({r["mode"] for r in block.get("flagged", [])})[:most]
+    if result.summary["analysis"] == "flight":
+        table, modes = result.extra.get("hover_table"), result.extra.get("hover_modes")
+    else:
+        table, modes = result.table, result.extra.get("modes")
+    if not flagged or table is None or modes is None:
+        return
+    plt = _plt()
+    rest = _cm_table(table)
+    p = np.column_stack([rest["x_m"], rest["y_m"], rest["z_m"]])
+    extent = float(np.max(np.ptp(p, axis=0))) or 1.0
+    for mode in flagged:
+        i = int(np.flatnonzero(np.asarray(modes["mode"]) == mode)[0])
+        n = len(rest["x_m"])
+        d = np.array([[modes[f"d{c}{j + 1}"][i] for c in "xyz"] for j in range(n)], float)
+        row = next(r for r in block["flagged"] if r["mode"] == mode)
+        fig = plt.figure(figsize=(15, 5))
+        _shape_axes(fig, {"equilibrium": rest, f"mode {mode} (scaled)": _cm_table(table, 0.1 * extent * d)},
+                    clamped_b=result.summary["n_constraints"] > 0)
+        fig.suptitle(f"{result.summary['case']}: mode {mode}, {row['frequency_hz']:.2f} Hz, "
+                     f"{row['worst_margin_percent']:.1f} % from {row['worst_harmonic']}/rev at "
+                     f"{row['operating_rpm']:g} rpm (through the centres of mass)")
+        yield _save(fig, out, f"mode{mode}_shape.png")
 
 
 def plot_shapes(tables: dict, path: Path, title: str):

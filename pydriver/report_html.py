@@ -116,6 +116,8 @@ def html_report(result, model=None) -> str:
                      f"frequency there {_num(s['lowest_frequency_hz'], 4)} Hz against 1/rev up to "
                      f"{_num(s['highest_1rev_hz'], 3)} Hz.</p>"
                      + (_table(["mode", "harmonic", "rpm", "f [Hz]"], rows) if rows else "<p>No crossings.</p>"))
+    if s.get("resonance"):
+        parts.append(_resonance_section(s["resonance"]))
     if "fatigue" in s:
         f = s["fatigue"]
         rows = [[h["rank"], h["quantity"], h["damage_per_hour"], h["life_hours"] if h["life_hours"] is not None
@@ -134,3 +136,22 @@ def html_report(result, model=None) -> str:
                      "docs/deck_reference.md).</p>" + _inputs(model))
     parts.append("</body></html>")
     return "\n".join(parts)
+
+
+def _resonance_section(block: dict) -> str:
+    """The resonance margins: every mode against its nearest k/rev harmonic at the operating
+    speed(s), the ones within the required margin marked (their shapes are among the figures)."""
+    if not block.get("operating_rpm"):
+        return f"<h2>Resonance margins</h2><p>{html.escape(block.get('note', ''))}</p>"
+    rows = [[r["mode"], r["operating_rpm"], r["frequency_hz"], r["error_hz"] if r.get("error_hz") else "-",
+             f"{r['harmonic']}/rev", r["harmonic_hz"], f"{r['worst_margin_percent']:.1f}",
+             "WITHIN MARGIN" if r["within_margin"] else "ok"] for r in block["modes"]]
+    speeds = ", ".join(f"{x:g}" for x in block["operating_rpm"])
+    text = (f"<h2>Resonance margins</h2><p>Each mode's separation from the nearest rotor harmonic k/rev "
+            f"(k = 1 ... {block['harmonics']}) at {speeds} rpm, in percent of the harmonic, narrowed by the "
+            f"frequency's error bar where the run was refined; required: {block['required_margin_percent']:g} % "
+            f"(&resonance margin_percent).  Modes about {html.escape(block['modes_about'])}.</p>")
+    if not rows:
+        return text + "<p>No mode below the highest harmonic.</p>"
+    return text + _table(["mode", "rpm", "f [Hz]", "error [Hz]", "nearest", "harmonic [Hz]", "margin [%]",
+                          "verdict"], rows)

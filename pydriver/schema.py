@@ -190,7 +190,8 @@ def _keys() -> list[Key]:
     add(Key("blade", "table_lag_deg", "real", "list", "deg", low=-90.0, high=90.0, doc="lead-lag angle at the table times"))
     add(Key("blade", "table_pitch_deg", "real", "list", "deg", low=-90.0, high=90.0, doc="pitch angle at the table times"))
     add(Key("blade", "azimuth0_deg", "real", unit="deg",
-            low=-360.0, high=360.0, doc="blade azimuth at t = 0 (0 = downstream, in the sense of rotation); default: that of clamp B"))
+            low=-360.0, high=360.0, doc="blade azimuth at t = 0 (0 = downstream, in the sense of rotation); default: that of the blade's "
+                "pitch axis in the rotor plane, pointing away from the rotor centre"))
     # &campbell ----------------------------------------------------------------------------
     add(Key("campbell", "rpm_max", "real", unit="rpm", **POS,
             doc="highest rotor speed of the diagram; default: the deck's rotor speed"))

@@ -137,8 +137,15 @@ def reference_model(deck) -> ref.ChainModel:
             if deck.has("blade.azimuth0_deg"):
                 az0 = deck["blade.azimuth0_deg"] * DEG
             else:
-                u = (p_B if p_B is not None else np.zeros(3)) - centre
-                az0 = float(np.mod(np.arctan2(u[1], u[0]) - np.pi, 2.0 * np.pi))
+                # docs/model.md: the blade's azimuth is that of its pitch axis in the rotor plane,
+                # oriented away from the rotor centre.
+                e = np.asarray(deck["blade.pitch_axis"], float)
+                h = deck["blade.pitch_hinge"] if deck.has("blade.pitch_hinge") else deck["blade.flap_hinge"]
+                radial = np.asarray(h, float) - centre
+                e_plane = e - e[2] * ref.E_Z
+                if e_plane @ radial < 0:
+                    e_plane = -e_plane
+                az0 = float(np.mod(np.arctan2(e_plane[1], e_plane[0]) + np.pi, 2.0 * np.pi))
             out += _blade_hinges(deck, az0)
         return out
 

@@ -75,7 +75,10 @@ def test_report_html_is_self_contained(flight_report):
     _, out = flight_report
     html = (out / "report.html").read_text()
     assert "<h2>Fatigue hotspots</h2>" in html and "Richardson" in html
-    assert html.count("data:image/png;base64,") == 3                         # the flight run's figures
-    assert all(name in html for name in ("envelopes.png", "loads_vs_azimuth.png", "shapes_vs_azimuth.png"))
+    # The flight run's figures, and the shape of the mode within the resonance margin (issue 21).
+    assert html.count("data:image/png;base64,") == 4
+    assert all(name in html for name in ("envelopes.png", "loads_vs_azimuth.png", "shapes_vs_azimuth.png",
+                                         "mode1_shape.png"))
+    assert "<h2>Resonance margins</h2>" in html and "WITHIN MARGIN" in html
     assert not re.search(r"""(src|href)=["']?(https?:|file:|/)""", html)    # nothing fetched from elsewhere
     assert "ei" in html and "1.906" in html                                 # the inputs
