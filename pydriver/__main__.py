@@ -43,6 +43,7 @@ def _default_outputs(decks: list[str]) -> dict:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="rotorcable", description=__doc__)
+    parser.add_argument("--version", action="version", version=f"rotorcable {_version()}")
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run one or more decks")
     run.add_argument("decks", nargs="+", help="namelist deck(s)")
@@ -59,8 +60,16 @@ def main(argv=None) -> int:
                        help="shapes: rest vs hover plots; cy-sweep: frequency against c_y and the "
                             "flap crossing; refine: first frequency for n = 11, 22, 44, 88")
     study.add_argument("--out", default="results/studies", help="output directory")
+    examples = sub.add_parser("examples", help="copy the example decks into a directory (never overwrites)")
+    examples.add_argument("dir", nargs="?", default="rotorcable-examples", help="target directory")
+    init = sub.add_parser("init", help="write a new deck that starts as one of the examples")
+    init.add_argument("deck", help="the new deck's path (must not exist)")
+    init.add_argument("--like", default="uh60_part2_forward_flight_cable",
+                      help="the example to start from (see `rotorcable examples`)")
     _add_sweep_parsers(sub)
     args = parser.parse_args(argv)
+    if args.command in ("examples", "init"):
+        return _examples_command(args)
     if args.command in ("sweep", "sweep-task", "sweep-collect"):
         return _sweep_command(args)
     if args.command == "study":
@@ -98,6 +107,29 @@ def main(argv=None) -> int:
             from pydriver.report_text import text_summary
             print(text_summary(res.summary, res.files))
     return status
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version("rotorcable")
+    except PackageNotFoundError:          # a source tree without an installation
+        return "(not installed)"
+
+
+def _examples_command(args) -> int:
+    from pydriver.examples import copy_examples, init_deck
+    try:
+        if args.command == "init":
+            print(f"wrote {init_deck(args.deck, args.like)} (from the example {args.like})")
+            return 0
+        written, kept = copy_examples(args.dir)
+    except (OSError, ValueError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    print(f"copied {len(written)} example decks to {args.dir}/"
+          + (f"; kept {len(kept)} already there: {', '.join(p.name for p in kept)}" if kept else ""))
+    return 0
 
 
 def _add_sweep_parsers(sub):

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from pydriver.deckfile import patch_deck
+from pydriver.examples import examples_dir
 from pydriver.run import run_deck
 
 
@@ -86,14 +87,13 @@ def observed_order(h, values) -> float:
     return float(np.log(abs((f1 - f2) / (f2 - f3))) / np.log(h[-3] / h[-2]))
 
 
-#: The project's decks, found from any working directory (the package sits beside inputs/).
-INPUTS = Path(__file__).resolve().parent.parent / "inputs"
-
-
-def run_study(name: str, out: Path, inputs: Path = INPUTS) -> str:
-    """Run a named study and write its CSV/JSON/PNG files into ``out``; returns a summary line."""
-    if not (Path(inputs) / "uh60_part2_modal.nml").is_file():
-        raise FileNotFoundError(f"the UH-60 decks are not in {inputs} (studies run from a source checkout)")
+def run_study(name: str, out: Path, inputs: Path | None = None) -> str:
+    """Run a named study and write its CSV/JSON/PNG files into ``out``; returns a summary line.
+    The UH-60 decks come from the example decks (a source checkout's inputs/ or the installed
+    package's data) unless ``inputs`` says otherwise."""
+    inputs = Path(inputs) if inputs is not None else examples_dir()
+    if not (inputs / "uh60_part2_modal.nml").is_file():
+        raise FileNotFoundError(f"the UH-60 decks are not in {inputs}")
     import json
     from pydriver.plots import plot_frequency_vs_cy, plot_shapes
     out.mkdir(parents=True, exist_ok=True)
@@ -110,7 +110,9 @@ def run_study(name: str, out: Path, inputs: Path = INPUTS) -> str:
         res = frequency_vs_cy(deck, c)
         c_cross = cy_at_frequency(deck, 4.33, 0.5, 5.0)
         rows = ["c_y_Nm_per_rad,f_undamped_hz,f_damped_hz,zeta"]
-        rows += [f"{a!r},{b!r},{d!r},{z!r}" for a, b, d, z in
+        # repr(float(x)): the shortest text that reads back exactly (repr of a numpy 2 scalar
+        # is "np.float64(1.0)", which no CSV reader takes).
+        rows += [",".join(repr(float(x)) for x in row) for row in
                  zip(res["c_y"], res["f_undamped_hz"], res["f_damped_hz"], res["zeta"])]
         (out / "frequency_vs_cy.csv").write_text("\n".join(rows) + "\n")
         (out / "flap_crossing.json").write_text(json.dumps(

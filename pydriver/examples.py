@@ -1,0 +1,78 @@
+"""The example decks shipped with rotorcable: found in a source checkout (``inputs/``) or in an
+installed package (``pydriver/examples/``, package data of the wheel), copied out for a user,
+or used as the start of a new deck (``rotorcable examples``, ``rotorcable init``).
+
+Neither command overwrites a file: an example already in the target directory is left as it
+is and named, and ``init`` refuses an existing deck (a user's file is never replaced).
+"""
+
+from __future__ import annotations
+
+import shutil
+from datetime import date
+from pathlib import Path
+
+_PACKAGE = Path(__file__).resolve().parent
+
+
+def examples_dir() -> Path:
+    """The directory holding the example decks: the installed package's ``examples/``, or the
+    source checkout's ``inputs/`` (an editable install or a run from the project root)."""
+    for candidate in (_PACKAGE / "examples", _PACKAGE.parent / "inputs"):
+        if (candidate / "uh60_part2_forward_flight_cable.nml").is_file():
+            return candidate
+    raise FileNotFoundError(f"no example decks beside {_PACKAGE} (a broken installation: reinstall rotorcable)")
+
+
+def example_names() -> list[str]:
+    """The example decks' names (file stems), sorted."""
+    return sorted(p.stem for p in examples_dir().glob("*.nml"))
+
+
+def copy_examples(dest) -> tuple[list[Path], list[Path]]:
+    """Copy every example deck into ``dest`` (created if missing).
+
+    Returns
+    -------
+    written, kept : list of Path
+        The decks copied, and those already present in ``dest`` (left untouched).
+    """
+    dest = Path(dest)
+    dest.mkdir(parents=True, exist_ok=True)
+    written, kept = [], []
+    for src in sorted(examples_dir().glob("*.nml")):
+        target = dest / src.name
+        if target.exists() or target.is_symlink():
+            kept.append(target)
+            continue
+        shutil.copyfile(src, target)
+        written.append(target)
+    return written, kept
+
+
+def init_deck(path, like: str) -> Path:
+    """Write a new deck ``path`` that starts as the example ``like``, with a header saying so.
+
+    Raises
+    ------
+    FileExistsError
+        ``path`` exists (it is never replaced).
+    ValueError
+        ``like`` is not an example deck.
+    """
+    path = Path(path)
+    names = example_names()
+    if like not in names:
+        raise ValueError(f"--like {like}: no such example deck; the examples are: {', '.join(names)}")
+    if path.exists() or path.is_symlink():
+        raise FileExistsError(f"{path} exists; rotorcable init never replaces a file (choose another name)")
+    text = (examples_dir() / f"{like}.nml").read_text(encoding="utf-8")
+    header = (f"! {path.name}: a new deck, started on {date.today().isoformat()} from the example '{like}'\n"
+              "! (rotorcable init).  Every key is explained in docs/deck_reference.md (or\n"
+              "! `python -m pydriver.deck_reference`); SI units, angles in degrees.  Change the case name,\n"
+              "! the cable and the supports, then: rotorcable run " + path.name + "\n!\n")
+    text = text.replace(f"name = '{like}'", f"name = '{path.stem}'", 1)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "x", encoding="utf-8") as fh:          # "x": fails if it appeared meanwhile
+        fh.write(header + text)
+    return path
