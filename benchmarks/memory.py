@@ -103,7 +103,7 @@ def million_samples(sets: dict, workdir: Path) -> dict:
     else:
         h5file = csvfile
         with open(csvfile) as fh:
-            columns = fh.readline().strip().split(",")
+            columns = [c.split(" [")[0] for c in fh.readline().strip().split(",")]
             t = np.array([float(line.split(",", 1)[0]) for line in fh])
         rows = {len(t)}
     expected = int(round(T_END / DT_OUT)) + 1

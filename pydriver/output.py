@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pydriver.output_columns import bare_name, header, unit_of
 from pydriver.run_directory import RunDirectory
 
 #: Time series with more values than this go to HDF5 when the deck asks for 'auto'.
@@ -40,9 +41,11 @@ class TimeseriesWriter:
             self._h5.attrs["columns"] = json.dumps(columns)
             self._sets = {c: self._h5.create_dataset(c, shape=(0,), maxshape=(None,), dtype="f8",
                                                      chunks=(16384,)) for c in columns}
+            for c, ds in self._sets.items():
+                ds.attrs["units"] = unit_of("timeseries.h5", c)
         else:
             self._fh = open(path, "w", encoding="utf-8", newline="\n")
-            self._fh.write(",".join(columns) + "\n")
+            self._fh.write(",".join(header("timeseries.csv", columns)) + "\n")
 
     def write(self, chunk: dict):
         n = len(chunk[self.columns[0]])
@@ -76,29 +79,38 @@ def read_timeseries(path: Path) -> dict:
 def read_csv(path: Path) -> dict:
     """The columns of a CSV file written here (numbers only)."""
     with open(path, encoding="utf-8") as fh:
-        names = fh.readline().strip().split(",")
+        names = [bare_name(c) for c in fh.readline().strip().split(",")]
         data = np.loadtxt(fh, delimiter=",", ndmin=2) if names != [""] else np.zeros((0, 0))
     if data.size == 0:
         return {n: np.zeros(0) for n in names}
     return {n: data[:, i] for i, n in enumerate(names)}
 
 
-def format_table(result) -> str:
+def format_table(result, language: str = "en") -> str:
     """The equilibrium table in the layout of the thesis's Tables A.3-A.6.
 
-    Columns: Körper, gamma_i [°], beta_i [°] (2 decimals), x, y, z [m] (4 decimals), and a
-    caption line with the case and the bending spring c_y (German decimal comma as printed).
+    Columns: body, gamma_i [deg], beta_i [deg] (2 decimals), x, y, z [m] (4 decimals), and a
+    caption line with the case and the bending spring c_y.  ``language = 'de'`` gives the
+    thesis's own German form with decimal commas (Körper, γ_i [°], "Tabelle: Ruhelage ...").
     """
     s = result.summary
     t = result.table
-    lines = [f"{'Körper':>6}  {'γ_i [°]':>8}  {'β_i [°]':>8}  {'x [m]':>8}  {'y [m]':>8}  {'z [m]':>8}"]
+    german = language == "de"
+    names = ("Körper", "γ_i [°]", "β_i [°]") if german else ("body", "gamma_i [deg]", "beta_i [deg]")
+    lines = [f"{names[0]:>6}  {names[1]:>13}  {names[2]:>13}  {'x [m]':>8}  {'y [m]':>8}  {'z [m]':>8}"]
     for i in range(len(t["body"])):
-        lines.append(f"{int(t['body'][i]):>6}  {t['gamma_deg'][i]:8.2f}  {t['beta_deg'][i]:8.2f}  "
-                     f"{t['x_m'][i]:8.4f}  {t['y_m'][i]:8.4f}  {t['z_m'][i]:8.4f}")
-    cy = f"{s.get('c_beta_Nm_per_rad', 0.0):.2f}".replace(".", ",")
+        row = (f"{int(t['body'][i]):>6}  {t['gamma_deg'][i]:13.2f}  {t['beta_deg'][i]:13.2f}  "
+               f"{t['x_m'][i]:8.4f}  {t['y_m'][i]:8.4f}  {t['z_m'][i]:8.4f}")
+        lines.append(row.replace(".", ",") if german else row)
+    cy = f"{s.get('c_beta_Nm_per_rad', 0.0):.2f}"
     lines.append("")
-    what = "Ruhelage" if "hover" in s["case"] else "Statische Ruhelage"
-    lines.append(f"Tabelle: {what} {s['case']}, c_y = {cy} Nm/rad")
+    hover = "hover" in s["case"]
+    if german:
+        what = "Ruhelage" if hover else "Statische Ruhelage"
+        lines.append(f"Tabelle: {what} {s['case']}, c_y = {cy.replace('.', ',')} Nm/rad")
+    else:
+        what = "equilibrium in hover" if hover else "static equilibrium"
+        lines.append(f"Table: {what}, {s['case']}, c_y = {cy} Nm/rad")
     return "\n".join(lines) + "\n"
 
 
@@ -111,20 +123,21 @@ def _cell(value, integer: bool) -> str:
     return str(int(value)) if integer else _fmt(value)
 
 
-def _write_csv(path: Path, columns: dict, int_columns=("body", "mode", "joint")):
+def _write_csv(path: Path, columns: dict, int_columns=("body", "mode", "joint"), units: dict | None = None):
+    """A table with its units in the header (``pydriver/output_columns.py``)."""
     names = list(columns)
     with open(path, "w", encoding="utf-8", newline="\n") as fh:
-        fh.write(",".join(names) + "\n")
+        fh.write(",".join(header(path.name, names, units)) + "\n")
         n = len(columns[names[0]]) if names else 0
         for i in range(n):
             fh.write(",".join(_cell(columns[c][i], c in int_columns) for c in names) + "\n")
 
 
-def write_files(result, run_dir: RunDirectory, plots: bool = False) -> None:
+def write_files(result, run_dir: RunDirectory, plots: bool = False, table_language: str = "en") -> None:
     """Write every file of a result into the run directory (before commit); summary.json last,
     so that wherever it exists the run's other files do too."""
     if result.table is not None:
-        run_dir.path("table.txt").write_text(format_table(result), encoding="utf-8")
+        run_dir.path("table.txt").write_text(format_table(result, table_language), encoding="utf-8")
         _write_csv(run_dir.path("table.csv"), result.table)
         result.files["table.txt"] = run_dir.out / "table.txt"
         result.files["table.csv"] = run_dir.out / "table.csv"
@@ -137,8 +150,11 @@ def write_files(result, run_dir: RunDirectory, plots: bool = False) -> None:
     if result.modes is not None:
         _write_csv(run_dir.path("modes.csv"), result.modes)
         result.files["modes.csv"] = run_dir.out / "modes.csv"
+    units = dict(result.extra.get("units", {}))
+    if "fatigue" in result.summary:            # the DEL is in the unit of the S-N curve's quantity
+        units.setdefault("fatigue.csv", {"del_amplitude": result.summary["fatigue"].get("unit", "-")})
     for name, columns in result.extra.get("tables", {}).items():
-        _write_csv(run_dir.path(name), columns)
+        _write_csv(run_dir.path(name), columns, units=units.get(name))
         result.files[name] = run_dir.out / name
     if plots:
         from pydriver.plots import plot_result

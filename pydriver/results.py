@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from pydriver.output_columns import bare_name
+
 # The table of a sweep and its records are the sweep package's; their names stay importable
 # from here, where they were first defined.
 from pydriver.sweep.records import MANIFEST, read_manifest, read_record
@@ -43,7 +45,7 @@ def _read_columns(path: Path, ints=()) -> dict | None:
     if not path.is_file():
         return None
     with path.open() as fh:
-        names = fh.readline().strip().split(",")
+        names = [bare_name(c) for c in fh.readline().strip().split(",")]
     data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
     return {n: (data[:, i].astype(int) if n in ints else data[:, i]) for i, n in enumerate(names)}
 

@@ -53,7 +53,7 @@ def run_deck(path, out=None, plots: bool = False, report: bool = False) -> Resul
     with RunDirectory(Path(out), deck=model.name) as run_dir:
         result = run(model, run_dir)
         require_finite(result, model.name)
-        write_files(result, run_dir, plots)
+        write_files(result, run_dir, plots, table_language=model.deck["output.table_language"])
         if report:
             from pydriver.report_html import html_report
             run_dir.path("report.html").write_text(html_report(result, model), encoding="utf-8")

@@ -272,6 +272,9 @@ def _keys() -> list[Key]:
             doc="order of the discretisation error in 1/n (Hencky chain: 2; Cardan-angle springs in 3-D: 1)",
             note="this model's discretisation orders are 1 and 2 (docs/model.md); below 0.5 the correction "
                  "(fine - medium)/(2^p - 1) exceeds 2.4 times the last change, above 8 it is below 1/255 of it"))
+    # &output -----------------------------------------------------------------------------------
+    add(Key("output", "table_language", "str", default="en", choices=("en", "de"),
+            doc="table.txt in English, or in German with decimal commas as in the thesis's appendix A"))
     # &solver ------------------------------------------------------------------------------
     add(Key("solver", "t_end", "real", unit="s", default=1.0, low=1.0e-9, high=1.0e7, doc="end time of a dynamic run"))
     add(Key("solver", "dt_out", "real", unit="s", default=1.0e-2, low=1.0e-12, high=1.0e7, doc="output interval"))
@@ -336,6 +339,7 @@ GROUP_DOCS = {
     "drag": "aerodynamic drag by the cross-flow principle",
     "fatigue": "fatigue per joint: S-N (Basquin) curve, rainflow around the jacket, hotspots",
     "refinement": "converged numbers: the same cable at n, 2n, 4n bodies and Richardson extrapolation",
+    "output": "how the result files are written",
     "solver": "time integration, statics and output settings",
 }
 

@@ -16,6 +16,7 @@ from conftest import INPUTS
 from pydriver.analyses.fatigue_loads import circumferential_histories, fatigue_of_run
 from pydriver.deckfile import deck_from_text, read_deck
 from pydriver.errors import DeckError
+from pydriver.output_columns import bare_name
 
 FF = INPUTS / "uh60_part2_forward_flight.nml"
 
@@ -127,7 +128,7 @@ def test_flight_deck_writes_a_ranked_fatigue_table(flight):
     f = res.summary["fatigue"]
     damage = [h["damage_per_hour"] for h in f["hotspots"]]
     assert damage == sorted(damage, reverse=True) and damage[0] > 0.0
-    rows = list(csv.DictReader(open(out / "fatigue.csv")))
+    rows = [{bare_name(k): v for k, v in r.items()} for r in csv.DictReader(open(out / "fatigue.csv"))]
     assert len(rows) == res.summary["n_bodies"]
     worst = max(rows, key=lambda row: float(row["damage_per_hour"]))
     assert int(worst["joint"]) == f["hotspots"][0]["joint"]

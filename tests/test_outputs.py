@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 import pydriver
-from conftest import INPUTS
+from pydriver.output_columns import bare_name
+from conftest import INPUTS, ROOT
 
 
 def test_static_outputs(tmp_path):
@@ -16,22 +17,34 @@ def test_static_outputs(tmp_path):
     for key in ("case", "analysis", "wall_time_s", "solver", "max_constraint_violation_m", "reactions"):
         assert key in s
     assert set(s["reactions"]) == {"A", "B"} and len(s["reactions"]["B"]["M"]) == 3
-    rows = list(csv.DictReader((tmp_path / "table.csv").open()))
-    # The thesis's columns first, in their order; more columns may follow (joint loads).
-    assert list(rows[0])[:6] == ["body", "gamma_deg", "beta_deg", "x_m", "y_m", "z_m"]
+    rows = [{bare_name(k): v for k, v in r.items()} for r in csv.DictReader((tmp_path / "table.csv").open())]
+    # The thesis's columns first, in their order, each with its unit (issue 22); more columns
+    # may follow (joint loads).
+    header = (tmp_path / "table.csv").open().readline().strip().split(",")
+    assert header[:6] == ["body [-]", "gamma_deg [deg]", "beta_deg [deg]", "x_m [m]", "y_m [m]", "z_m [m]"]
     assert len(rows) == 5
     # table.csv carries full precision, table.txt the thesis's 2/4 decimals.
     assert float(rows[2]["y_m"]) == pytest.approx(res.table["y_m"][2], abs=1e-15)
     txt = (tmp_path / "table.txt").read_text().splitlines()
-    assert txt[0].split()[0] == "Körper" and len(txt[1].split()) == 6
+    assert txt[0].split()[0] == "body" and len(txt[1].split()) == 6          # English by default
     assert txt[3].split() == ["3", "90.00", "90.00", "0.2000", "0.1000", "-0.2000"]
-    assert "c_y" in txt[-1]
+    assert txt[-1].startswith("Table: static equilibrium") and "c_y" in txt[-1]
     assert [p.name for p in tmp_path.glob(".*")] == [".rotorcable-run.json"]    # no temporaries left
+
+
+def test_table_in_the_thesis_german(tmp_path):
+    """&output table_language = 'de': the thesis appendix's own form, decimal commas."""
+    deck = tmp_path / "de.nml"
+    deck.write_text((INPUTS / "six_link_static.nml").read_text() + "\n&output\n  table_language = 'de'\n/\n")
+    pydriver.run_deck(deck, out=tmp_path / "o")
+    txt = (tmp_path / "o" / "table.txt").read_text().splitlines()
+    assert txt[0].split()[0] == "Körper" and txt[3].split() == ["3", "90,00", "90,00", "0,2000", "0,1000", "-0,2000"]
+    assert txt[-1].startswith("Tabelle: Statische Ruhelage")
 
 
 def test_dynamic_outputs(tmp_path):
     res = pydriver.run_deck(INPUTS / "six_link_dynamic.nml", out=tmp_path)
-    header = (tmp_path / "timeseries.csv").open().readline().strip().split(",")
+    header = [bare_name(c) for c in (tmp_path / "timeseries.csv").open().readline().strip().split(",")]
     n = 5
     expect = (["t"] + [f"{c}{j}" for j in range(1, n + 1) for c in "xyz"]
               + [f"{a}{j}_deg" for j in range(1, n + 1) for a in ("gamma", "beta")]
@@ -69,3 +82,28 @@ def test_study_plots_and_decay_plot(tmp_path):
     assert (tmp_path / "decay" / "decay.png").stat().st_size > 10000
     assert json.loads((tmp_path / "decay" / "summary.json").read_text())["decay"]["f_damped_hz"] == \
         pytest.approx(res.summary["decay"]["f_damped_hz"])
+
+
+def test_outputs_reference_is_current():
+    """docs/outputs.md is generated from pydriver/output_columns.py."""
+    from pydriver.output_columns import outputs_markdown
+    assert (ROOT / "docs" / "outputs.md").read_text() == outputs_markdown(), \
+        "run: python -m pydriver.output_columns"
+
+
+@pytest.mark.parametrize("stem", ["uh60_part2_forward_flight_cable", "uh60_part2_campbell", "uh60_part2_modal",
+                                  "six_link_dynamic", "six_link_static"])
+def test_every_written_column_has_a_unit_and_a_meaning(tmp_path, stem):
+    """Each CSV header cell is 'name [unit]', and each name has a row in docs/outputs.md."""
+    from pydriver.output_columns import _UNIT, column_of
+    deck = INPUTS / f"{stem}.nml"
+    model = pydriver.Model.from_deck(deck)
+    if model.deck["refinement.levels"] > 1:
+        model = model.with_changes({"refinement.levels": 2})
+    pydriver.run_deck(model, out=tmp_path / "o")
+    for csv_file in (tmp_path / "o").glob("*.csv"):
+        cells = csv_file.open().readline().strip().split(",")
+        for cell in cells:
+            m = _UNIT.match(cell)
+            assert m, (csv_file.name, cell)
+            assert column_of(csv_file.name, m.group(1)) is not None, (csv_file.name, cell)

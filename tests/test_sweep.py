@@ -27,6 +27,7 @@ import numpy as np
 import pytest
 
 import pydriver
+from pydriver.output_columns import bare_name
 from pydriver.deckfile import read_deck
 from pydriver.sweep import SweepError, expand_grid, parse_set
 from conftest import INPUTS
@@ -48,8 +49,9 @@ def sweep_cmd(out, *extra):
 
 
 def read_csv(path):
+    """sweep.csv rows keyed by the bare column names (the header carries units, issue 22)."""
     with open(path, newline="") as fh:
-        return list(csv.DictReader(fh))
+        return [{bare_name(k): v for k, v in row.items()} for row in csv.DictReader(fh)]
 
 
 def assert_same_rows(rows, ref):

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import pydriver
+from pydriver.output_columns import bare_name
 from conftest import DATA, INPUTS
 from pydriver.study import (cy_at_frequency, frequency_vs_cy, observed_order, override_deck,
                             refined_changes)
@@ -46,7 +47,7 @@ def test_first_frequency_modal_and_decay(modal, decay):
 
 def test_modes_file(tmp_path):
     res = pydriver.run_deck(INPUTS / "uh60_part2_modal.nml", out=tmp_path)
-    header = (tmp_path / "modes.csv").open().readline().strip().split(",")
+    header = [bare_name(c) for c in (tmp_path / "modes.csv").open().readline().strip().split(",")]
     assert header[:4] == ["mode", "f_undamped_hz", "f_damped_hz", "zeta"]
     assert header[4:7] == ["dx1", "dy1", "dz1"] and len(header) == 4 + 3 * 11
     data = np.loadtxt(tmp_path / "modes.csv", delimiter=",", skiprows=1)

@@ -76,6 +76,11 @@ def base_summary(model, analysis: str, wall: float) -> dict:
     springs = d.values["springs"]["c_beta"]
     free = [j for j in range(model.n_bodies) if not (j == 0 and d["chain.first_body"] == "clamped")]
     c_beta = float(np.median(springs[free])) if free else 0.0
+    if d.has("cable.ei"):
+        # Physical cable: the bending spring of an interior joint, EI / l (docs/model.md);
+        # &springs c_beta is unused (it had been reported as 0).
+        lengths = model.description["bodies"].lengths
+        c_beta = float(d["cable.ei"]) / float(np.median(lengths))
     out = {"case": model.case, "deck": model.name, "analysis": analysis, "wall_time_s": wall,
            "n_bodies": model.n_bodies, "n_coords": model.nq, "n_constraints": model.nc,
            "c_beta_Nm_per_rad": c_beta}

@@ -17,6 +17,8 @@ or a force pulse on one body cannot be refined this way and is refused (deck_rul
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 from pydriver.richardson import TWO_GRID_SAFETY, richardson, richardson_two
@@ -137,7 +139,9 @@ def refinement_table(refinement: dict) -> dict:
     """refinement.csv: one row per quantity."""
     q = refinement["quantities"]
     names = list(q)
-    cols = {"quantity": names}
+    # The quantity's unit in a column of its own ("peak bending [Nm]" -> "peak bending", "Nm").
+    split = [re.fullmatch(r"(.*?)(?: \[([^\]]*)\])?", k).groups() for k in names]
+    cols = {"quantity": [a for a, _ in split], "unit": [b or "-" for _, b in split]}
     for i, n in enumerate(refinement["n"]):
         cols[f"n{n}"] = [q[k]["values"][i] for k in names]
     for key in ("extrapolated", "error_estimate", "observed_order", "order_observed"):

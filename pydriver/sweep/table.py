@@ -122,6 +122,20 @@ def _cell(v) -> str:
     return str(v)
 
 
+def sweep_header(columns: list[str]) -> list[str]:
+    """The header cells of ``sweep.csv``: every column with its unit in brackets (a swept key's
+    from the deck schema, the results' from ``pydriver/output_columns.py``)."""
+    from pydriver.output_columns import header
+    from pydriver.schema import lookup
+    units = {}
+    for c in columns:
+        group, _, key = c.partition(".")
+        k = lookup(group, key.split("(")[0]) if key else None
+        if k is not None:
+            units[c] = k.unit
+    return header("sweep.csv", columns, units)
+
+
 def table_csv_text(columns: list[str], rows: list[dict]) -> str:
     """``sweep.csv`` text: a header and one row per run; blank cells for missing values.
 
@@ -129,7 +143,7 @@ def table_csv_text(columns: list[str], rows: list[dict]) -> str:
     """
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow(columns)
+    w.writerow(sweep_header(columns))
     for r in rows:
         w.writerow([_cell(r.get(c)) for c in columns])
     return buf.getvalue()

@@ -1,0 +1,208 @@
+"""Every column of every output file: its name, unit and meaning, in one table.
+
+The CSV headers carry the unit of each column in brackets, ``FA_x [N]`` (dimensionless
+columns ``[-]``), as OpenFAST's output files carry a units row; :func:`header` writes them and
+:func:`bare_name` reads them back, so ``load_results`` and every reader keyed by the old names
+(``FA_x``) keep working.  ``docs/outputs.md`` is generated from this table
+(``python -m pydriver.output_columns``; a test checks it is current and that every column the
+shipped decks write has a row here).
+
+Patterns: ``{j}`` is a joint or body number, ``{k}`` a mode number, ``{n}`` a number of bodies;
+``{c}`` one of x, y, z.
+"""
+
+from __future__ import annotations
+
+import re
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+
+@dataclass(frozen=True)
+class Column:
+    """One column pattern of an output file."""
+
+    files: tuple          #: the files it appears in
+    pattern: str          #: the name, with {j}, {k}, {n}, {c} placeholders
+    unit: str             #: SI unit ('-' dimensionless); '*' = given per row or by the deck
+    meaning: str
+
+
+TS = ("timeseries.csv", "timeseries.h5")
+FAT = ("fatigue.csv",)
+SWEEP = ("sweep.csv",)
+LOADS = ("timeseries.csv", "timeseries.h5", "table.csv")
+
+COLUMNS = [
+    # -- time series ---------------------------------------------------------------------------
+    Column(TS, "t", "s", "time"),
+    Column(TS, "psi_deg", "deg", "rotor angle turned since t = 0 (hub frame runs)"),
+    Column(TS, "azimuth_deg", "deg", "blade azimuth, 0 = downstream, in the sense of rotation"),
+    Column(TS, "{c}{j}", "m", "centre of mass of body j (deck frame; hub frame when the rotor turns)"),
+    Column(TS, "tip_{c}", "m", "end point of the last body"),
+    Column(TS + SWEEP, "F{s}_{c}", "N", "force the support (s = A, B) exerts on the chain"),
+    Column(TS + SWEEP, "M{s}_{c}", "Nm", "moment the support (s = A, B) exerts on the chain, about its clamp point"),
+    Column(TS, "gamma{j}_deg", "deg", "thesis angle gamma of body j (wrapped to +-180)"),
+    Column(TS, "beta{j}_deg", "deg", "thesis angle beta of body j (wrapped to +-180)"),
+    Column(TS, "E_kin_J", "J", "kinetic energy"),
+    Column(TS, "E_pot_J", "J", "potential energy (gravity and springs)"),
+    Column(TS, "g_max_m", "m", "largest constraint violation of clamp B"),
+    Column(LOADS, "axial{j}_N", "N", "axial force joint j carries (tension positive)"),
+    Column(LOADS, "shear{j}_N", "N", "shear force magnitude at joint j"),
+    Column(LOADS, "bending{j}_Nm", "Nm", "bending moment magnitude at joint j"),
+    Column(LOADS, "torsion{j}_Nm", "Nm", "torsion moment at joint j"),
+    Column(TS, "moment_{a}{j}_Nm", "Nm", "bending moment component about the joint's local a = x, y axis"),
+    Column(LOADS, "curvature{j}_1pm", "1/m", "curvature magnitude at joint j (bending moment / EI)"),
+    Column(TS, "kappa_{a}{j}_1pm", "1/m", "curvature component about the joint's local a = x, y axis"),
+    Column(LOADS, "strain{j}", "-", "largest jacket surface strain at joint j (curvature x radius)"),
+    # -- equilibrium table -----------------------------------------------------------------------
+    Column(("table.csv",), "body", "-", "body number, from clamp A"),
+    Column(("table.csv",), "gamma_deg", "deg", "thesis angle gamma of the body"),
+    Column(("table.csv",), "beta_deg", "deg", "thesis angle beta of the body"),
+    Column(("table.csv",), "{c}_m", "m", "centre of mass of the body"),
+    Column(("table.csv",), "joint_{c}_m", "m", "joint point where the body starts"),
+    Column(("table.csv",), "axial_N", "N", "axial force the body's joint carries (tension positive)"),
+    Column(("table.csv",), "shear_N", "N", "shear force at the body's joint"),
+    Column(("table.csv",), "bending_Nm", "Nm", "bending moment at the body's joint"),
+    Column(("table.csv",), "torsion_Nm", "Nm", "torsion moment at the body's joint"),
+    Column(("table.csv",), "curvature_1pm", "1/m", "curvature at the body's joint"),
+    Column(("table.csv",), "strain", "-", "jacket surface strain at the body's joint"),
+    # -- modes -------------------------------------------------------------------------------------
+    Column(("modes.csv",), "mode", "-", "mode number, by undamped frequency"),
+    Column(("modes.csv",), "f_undamped_hz", "Hz", "undamped natural frequency"),
+    Column(("modes.csv",), "f_damped_hz", "Hz", "damped frequency (0: overdamped)"),
+    Column(("modes.csv",), "zeta", "-", "damping ratio"),
+    Column(("modes.csv",), "d{c}{j}", "-", "CM displacement of body j in the mode, largest component 1"),
+    # -- Campbell ------------------------------------------------------------------------------------
+    Column(("campbell.csv", "campbell_crossings.csv"), "rpm", "rpm", "rotor speed"),
+    Column(("campbell.csv", "campbell_crossings.csv"), "mode", "-", "tracked mode"),
+    Column(("campbell.csv",), "f_hz", "Hz", "damped frequency of the mode at that speed"),
+    Column(("campbell.csv",), "zeta", "-", "damping ratio"),
+    Column(("campbell.csv",), "mac", "-", "modal assurance criterion against the previous speed"),
+    Column(("campbell_crossings.csv", "resonance.csv"), "harmonic", "-", "rotor harmonic k (k/rev)"),
+    Column(("campbell_crossings.csv", "resonance.csv"), "frequency_hz", "Hz", "frequency of the mode"),
+    # -- resonance margins -----------------------------------------------------------------------------
+    Column(("resonance.csv",), "mode", "-", "mode number"),
+    Column(("resonance.csv",), "operating_rpm", "rpm", "operating speed the margin is taken at"),
+    Column(("resonance.csv",), "error_hz", "Hz", "error bar of the frequency (Richardson; refined runs)"),
+    Column(("resonance.csv",), "harmonic_hz", "Hz", "frequency of the nearest harmonic k/rev"),
+    Column(("resonance.csv",), "margin_percent", "%", "|f - k/rev| / (k/rev)"),
+    Column(("resonance.csv",), "worst_margin_percent", "%", "the margin narrowed by the error bar"),
+    Column(("resonance.csv",), "within_margin", "-", "1 when below &resonance margin_percent"),
+    # -- fatigue -----------------------------------------------------------------------------------------
+    Column(FAT, "joint", "-", "joint number, from clamp A"),
+    Column(FAT, "arc_length_m", "m", "arc length of the joint from clamp A"),
+    Column(FAT, "angle_deg", "deg", "the point around the jacket with the most damage"),
+    Column(FAT, "damage_per_hour", "1/h", "Miner damage per flight hour at that point"),
+    Column(FAT, "life_hours", "h", "1 / damage per hour (blank: no damage)"),
+    Column(FAT, "n_cycles", "-", "rainflow cycles per record (half cycles count 1/2)"),
+    Column(FAT, "del_amplitude", "*", "damage-equivalent amplitude (unit of &fatigue sn_quantity)"),
+    Column(FAT, "{q}_{s}", "*", "statistic s (min, max, mean, amplitude) of load q over the record"),
+    # -- refinement ----------------------------------------------------------------------------------------
+    Column(("refinement.csv",), "quantity", "-", "what is extrapolated (its unit in the column unit)"),
+    Column(("refinement.csv",), "unit", "-", "the quantity's unit"),
+    Column(("refinement.csv",), "n{n}", "*", "the quantity at n bodies"),
+    Column(("refinement.csv",), "extrapolated", "*", "Richardson extrapolation"),
+    Column(("refinement.csv",), "error_estimate", "*", "its error estimate"),
+    Column(("refinement.csv",), "observed_order", "-", "observed order of convergence (assumed: 2 levels)"),
+    Column(("refinement.csv",), "order_observed", "-", "1: observed over 3 levels, 0: assumed"),
+    # -- sweep -----------------------------------------------------------------------------------------------
+    Column(SWEEP, "id", "-", "grid point"),
+    Column(SWEEP, "{group}.{key}", "*", "a swept deck key (its unit from docs/deck_reference.md)"),
+    Column(SWEEP, "analysis", "-", "analysis of the run"),
+    Column(SWEEP, "wall_time_s", "s", "computing time of the run"),
+    Column(SWEEP, "max_constraint_violation_m", "m", "largest constraint violation"),
+    Column(SWEEP, "f{k}_hz", "Hz", "undamped frequency of mode k"),
+    Column(SWEEP, "f1_damped_hz", "Hz", "first damped frequency"),
+    Column(SWEEP, "zeta1", "-", "first damping ratio"),
+    Column(SWEEP, "energy_drift_rel", "-", "relative energy drift of a dynamic run"),
+    Column(SWEEP, "solver_{counter}", "-", "solver statistics (steps, residuals, ...)"),
+    Column(SWEEP, "error", "-", "the error of a failed run"),
+]
+
+_PLACEHOLDER = {"{j}": r"\d+", "{k}": r"\d+", "{n}": r"\d+", "{c}": "[xyz]", "{a}": "[xy]", "{s}": "[AB]",
+                "{q}": "(?:axial_N|shear_N|bending_Nm|torsion_Nm|strain)",
+                "{group}": r"[a-z_]+", "{key}": r"[a-z_0-9]+(?:\(\d+\))?", "{counter}": r"[a-z_]+"}
+_FAT_STAT = re.compile(r"^(axial_N|shear_N|bending_Nm|torsion_Nm|strain)_(min|max|mean|amplitude)$")
+
+
+def _regex(pattern: str) -> re.Pattern:
+    out = re.escape(pattern)
+    for ph, rx in _PLACEHOLDER.items():
+        out = out.replace(re.escape(ph), rx)
+    if pattern == "{q}_{s}":
+        return _FAT_STAT
+    return re.compile(f"^{out}$")
+
+
+_COMPILED = [(c, _regex(c.pattern)) for c in COLUMNS]
+_UNIT = re.compile(r"^(.*?) \[([^\]]*)\]$")
+
+
+def column_of(file: str, name: str) -> Column | None:
+    """The table row of column ``name`` of ``file`` (None if it has none)."""
+    for col, rx in _COMPILED:
+        if file in col.files and rx.match(name):
+            return col
+    return None
+
+
+def unit_of(file: str, name: str, units: dict | None = None) -> str:
+    """The unit of a column: ``units[name]`` if the writer knows it (a deck-dependent unit),
+    else the table's, else the unit suffix of the name (``_N``, ``_deg`` ...), else '-'."""
+    if units and name in units:
+        return units[name]
+    col = column_of(file, name)
+    if col is not None and col.unit != "*":
+        return col.unit
+    m = _FAT_STAT.match(name)
+    if m:
+        return {"axial_N": "N", "shear_N": "N", "bending_Nm": "Nm", "torsion_Nm": "Nm", "strain": "-"}[m.group(1)]
+    return "-"
+
+
+def header(file: str, names: list[str], units: dict | None = None) -> list[str]:
+    """The CSV header cells: every name with its unit in brackets."""
+    return [f"{n} [{unit_of(file, n, units)}]" for n in names]
+
+
+def bare_name(cell: str) -> str:
+    """A header cell without its unit: ``'FA_x [N]'`` -> ``'FA_x'`` (old headers unchanged)."""
+    m = _UNIT.match(cell.strip())
+    return m.group(1) if m else cell.strip()
+
+
+def outputs_markdown() -> str:
+    """``docs/outputs.md``: every output file and its columns (generated)."""
+    lines = ["# Output files", "",
+             "Generated from `pydriver/output_columns.py` by `python -m pydriver.output_columns`; do not edit by "
+             "hand (CI checks that this file is current).", "",
+             "Every CSV header carries its column's unit in brackets, e.g. `FA_x [N]` (`[-]`: dimensionless). "
+             "`pydriver.load_results` and `pydriver.output.read_csv` give the columns by their bare names "
+             "(`FA_x`), as before units were added.  `{j}` is a joint or body number (from clamp A), `{k}` a "
+             "mode, `{n}` a number of bodies, `{c}` one of x, y, z, `{a}` one of x, y, `{s}` a support, A or B. "
+             "A unit `*` depends on the deck (the S-N curve's quantity) or on the row (refinement.csv's `unit`).",
+             "", "Besides the tables: `summary.json` (every scalar result, warnings, solver statistics), "
+             "`table.txt` (the equilibrium in the layout of the thesis's appendix; English, or German with "
+             "`&output table_language = 'de'`), `report.html`, the PNG plots, and `.rotorcable-run.json` "
+             "(the marker listing the run's files).", ""]
+    files = sorted({f for c in COLUMNS for f in c.files})
+    for f in files:
+        lines += [f"## `{f}`", "", "| column | unit | meaning |", "|---|---|---|"]
+        for c in COLUMNS:
+            if f in c.files:
+                lines.append(f"| `{c.pattern}` | {c.unit} | {c.meaning} |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    path = Path(argv[0]) if argv else Path(__file__).resolve().parent.parent / "docs" / "outputs.md"
+    path.write_text(outputs_markdown(), encoding="utf-8")
+    print(f"wrote {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
