@@ -52,6 +52,10 @@ def main(argv=None) -> int:
     run.add_argument("--report", action="store_true",
                      help="also write report.html: inputs, results and plots on one self-contained page")
     run.add_argument("--json", action="store_true", help="print summary.json instead of the readable summary")
+    loud = run.add_mutually_exclusive_group()
+    loud.add_argument("-v", "--verbose", action="store_true",
+                      help="progress messages on stderr, one per line with the elapsed time (also when not a terminal)")
+    loud.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     run.add_argument("--refine", action="store_true",
                      help="run the cable at n, 2n, 4n bodies and print every number with its Richardson "
                           "extrapolation and error estimate (&refinement levels = 3; needs &cable)")
@@ -79,6 +83,8 @@ def main(argv=None) -> int:
     if args.out and len(args.decks) > 1:
         parser.error("--out takes one deck")
     _exit_on_termination()
+    from pydriver import progress
+    progress.configure(progress.QUIET if args.quiet else progress.VERBOSE if args.verbose else progress.NORMAL)
     decks = {args.decks[0]: Path(args.out)} if args.out else _default_outputs(args.decks)
     status = 0
     for deck, out in decks.items():
@@ -87,7 +93,8 @@ def main(argv=None) -> int:
             if args.refine:
                 from pydriver.model import Model
                 target = Model.from_deck(deck).with_changes({"refinement.levels": 3})
-            res = run_deck(target, out=out, plots=args.plots, report=args.report)
+            with progress.run_progress(Path(deck).name):
+                res = run_deck(target, out=out, plots=args.plots, report=args.report)
         except (DeckError, RunError) as exc:
             print(f"error: {exc}", file=sys.stderr)
             status = 1

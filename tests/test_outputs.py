@@ -107,3 +107,14 @@ def test_every_written_column_has_a_unit_and_a_meaning(tmp_path, stem):
             m = _UNIT.match(cell)
             assert m, (csv_file.name, cell)
             assert column_of(csv_file.name, m.group(1)) is not None, (csv_file.name, cell)
+
+
+@pytest.mark.parametrize("value,words", [("'fr'", "'en' | 'de'"), ("'en', 'de'", "one value"),
+                                         ("2000000000*'en'", "repeat count"), ("1.0", "not a string")])
+def test_table_language_is_checked(tmp_path, value, words):
+    """The new key's fuzz cases: unknown, wrong count, huge repeat, wrong type."""
+    deck = tmp_path / "bad.nml"
+    deck.write_text((INPUTS / "six_link_static.nml").read_text() + f"\n&output\n  table_language = {value}\n/\n")
+    with pytest.raises(pydriver.DeckError) as exc:
+        pydriver.run_deck(deck)
+    assert (exc.value.group, exc.value.key) == ("output", "table_language") and words in str(exc.value)

@@ -14,6 +14,7 @@ from pydriver.analyses.singularity import ClosestApproach
 from pydriver.analyses.statics import equilibrium
 from pydriver.errors import DeckError, RunError
 from pydriver.output import CSV_MAX_VALUES, TimeseriesWriter
+from pydriver.progress import report
 from pydriver.result import Result
 
 #: Samples integrated and post-processed per call into the core (bounded memory per chunk).
@@ -122,6 +123,7 @@ def dynamic_analysis(model, run_dir=None) -> Result:
                 # A support on the blade may have carried clamp B out of the cable's reach.
                 raise reach_error(model, q_good, t_good, float(tk[-1]), exc) from exc
             q_good, t_good = q[:, -1], float(tk[-1])
+            report(f"dynamic: t = {t_good:.4g} s of {float(times[-1]):.4g} s")
             cardan.update(tk, q)
             cols = chunk_columns(model, tk, model.core.sample(tk, q, v))
             if writer is not None:

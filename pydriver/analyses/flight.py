@@ -23,6 +23,7 @@ from pydriver.analyses.singularity import ClosestApproach
 from pydriver.analyses.statics import equilibrium
 from pydriver.errors import DeckError, RunError
 from pydriver.output import TimeseriesWriter
+from pydriver.progress import report
 from pydriver.result import Result
 
 
@@ -81,6 +82,8 @@ def flight_analysis(model, run_dir=None) -> Result:
                 # The blade may have carried clamp B out of the cable's reach: say so.
                 raise reach_error(model, q_start[:, -1], period * rev, float(t[-1]), exc) from exc
             cardan.update(t, q)
+            report(f"flight: revolution {rev + 1} of at most {int(s['max_revolutions'])}"
+                   + (f", last difference {history[-1]:.2e} m (periodic_tol {tol:g} m)" if history else ""))
             cm = np.stack([model.core.shape(q[:, k], t[k])["cm"] for k in range(spr)])
             if prev_cm is not None:
                 history.append(float(np.max(np.abs(cm - prev_cm))))

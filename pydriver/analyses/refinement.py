@@ -18,9 +18,12 @@ or a force pulse on one body cannot be refined this way and is refused (deck_rul
 from __future__ import annotations
 
 import re
+import time
 
 import numpy as np
 
+from pydriver.errors import DeckError, RunError
+from pydriver.progress import stage
 from pydriver.richardson import TWO_GRID_SAFETY, richardson, richardson_two
 from pydriver.schema import GROUPS
 
@@ -153,14 +156,30 @@ def run_refined(model, run_dir, analyse):
     """Run ``analyse(model, run_dir)`` at n, 2n, 4n ...; the finest run's result with
     summary['refinement'] added."""
     from pydriver.model import Model
+    t0 = time.perf_counter()
     levels = int(model.deck["refinement.levels"])
     models = [model if k == 0 else Model(refined_deck(model.deck, 2 ** k)) for k in range(levels)]
-    summaries = [analyse(m, None).summary for m in models[:-1]]
-    result = analyse(models[-1], run_dir)
-    summaries.append(result.summary)
+    summaries, walls = [], []
+    for k, m in enumerate(models):
+        name = f"refinement level {k + 1} of {levels} (n = {m.n_bodies})"
+        t_level = time.perf_counter()
+        with stage(name):
+            try:
+                result = analyse(m, run_dir if k == levels - 1 else None)
+            except RunError as exc:
+                # Say which level failed (issue 22: a 40-body --refine flight failed after 49 s
+                # without saying at which n).
+                raise RunError(f"{name}: {exc}") from exc
+            except DeckError as exc:
+                raise DeckError(exc.deck, exc.group, exc.key, f"{exc.reason} ({name})") from exc
+        walls.append(time.perf_counter() - t_level)
+        summaries.append(result.summary)
     ns = [m.n_bodies for m in models]
     refinement, warnings = extrapolate(summaries, ns, float(model.deck["refinement.expected_order"]))
     result.summary["refinement"] = refinement
+    # The job's time, all levels (the finest level's alone was printed as the job's).
+    result.summary["wall_time_s"] = time.perf_counter() - t0
+    result.summary["wall_time_levels_s"] = walls
     result.summary["deck_n_bodies"] = model.n_bodies
     if warnings:
         result.summary.setdefault("warnings", []).extend(warnings)
