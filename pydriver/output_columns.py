@@ -56,6 +56,9 @@ COLUMNS = [
     Column(LOADS, "curvature{j}_1pm", "1/m", "curvature magnitude at joint j (bending moment / EI)"),
     Column(TS, "kappa_{a}{j}_1pm", "1/m", "curvature component about the joint's local a = x, y axis"),
     Column(LOADS, "strain{j}", "-", "largest jacket surface strain at joint j (curvature x radius)"),
+    Column(TS, "{coord}{j}_coord_deg", "deg", "joint coordinate the springs act on, not wrapped: gamma, beta (zy); "
+                                             "cardan_x, cardan_y (xy); and twist (xyz)"),
+    Column(TS, "{coord}{j}_rate_degps", "deg/s", "rate of that joint coordinate"),
     # -- equilibrium table -----------------------------------------------------------------------
     Column(("table.csv",), "body", "-", "body number, from clamp A"),
     Column(("table.csv",), "gamma_deg", "deg", "thesis angle gamma of the body"),
@@ -121,7 +124,8 @@ COLUMNS = [
     Column(SWEEP, "error", "-", "the error of a failed run"),
 ]
 
-_PLACEHOLDER = {"{j}": r"\d+", "{k}": r"\d+", "{n}": r"\d+", "{c}": "[xyz]", "{a}": "[xy]", "{s}": "[AB]",
+_PLACEHOLDER = {"{coord}": "(?:gamma|beta|cardan_x|cardan_y|twist)", "{j}": r"\d+", "{k}": r"\d+",
+                "{n}": r"\d+", "{c}": "[xyz]", "{a}": "[xy]", "{s}": "[AB]",
                 "{q}": "(?:axial_N|shear_N|bending_Nm|torsion_Nm|strain)",
                 "{group}": r"[a-z_]+", "{key}": r"[a-z_0-9]+(?:\(\d+\))?", "{counter}": r"[a-z_]+"}
 _FAT_STAT = re.compile(r"^(axial_N|shear_N|bending_Nm|torsion_Nm|strain)_(min|max|mean|amplitude)$")

@@ -34,6 +34,25 @@ def output_times(t_end: float, dt_out: float, t0: float = 0.0) -> np.ndarray:
     return t
 
 
+#: Names of a joint's coordinates, in their order in q (docs/model.md: thesis gamma/beta, or
+#: the Cardan bending angles about the joint's x and y axes, and the twist).
+COORDINATE_NAMES = {"zy": ("gamma", "beta"), "xy": ("cardan_x", "cardan_y"),
+                    "xyz": ("cardan_x", "cardan_y", "twist")}
+
+
+def coordinate_columns(model) -> list[tuple[str, str, int]]:
+    """(coordinate column, rate column, 0-based index in q) of every joint coordinate: the
+    coordinates the springs act on, unwrapped (gamma{j}_deg wraps to +-180), and their rates."""
+    names = COORDINATE_NAMES[model.deck["chain.joint"]]
+    out = []
+    for j, first in enumerate(model.description["first_coord"]):
+        if first == 0:                      # a locked joint (a clamped first body) has none
+            continue
+        for k, name in enumerate(names):
+            out.append((f"{name}{j + 1}_coord_deg", f"{name}{j + 1}_rate_degps", int(first) - 1 + k))
+    return out
+
+
 def column_names(model) -> list[str]:
     """The time-series columns of a dynamic run of this model."""
     nb = model.n_bodies
@@ -49,11 +68,14 @@ def column_names(model) -> list[str]:
     names += [f"strain{j + 1}" for j in range(nb)]
     names += [f"{q}{j + 1}_{u}" for j in range(nb) for q, u in
               (("moment_x", "Nm"), ("moment_y", "Nm"), ("kappa_x", "1pm"), ("kappa_y", "1pm"))]
+    coords = coordinate_columns(model)
+    names += [c for c, _, _ in coords] + [r for _, r, _ in coords]
     return names
 
 
-def chunk_columns(model, t, sample) -> dict:
-    """One chunk's time-series columns from the core's samples."""
+def chunk_columns(model, t, sample, q, v) -> dict:
+    """One chunk's time-series columns from the core's samples and the coordinates q, v
+    (nq, len(t)) they were taken at."""
     nb = model.n_bodies
     cols = {"t": np.asarray(t, float)}
     rot = model.description["rotor"]
@@ -74,6 +96,11 @@ def chunk_columns(model, t, sample) -> dict:
     cols["E_pot_J"] = sample["potential"]
     cols["g_max_m"] = sample["g_max"]
     cols.update(joint_columns(model, sample))
+    coords = coordinate_columns(model)
+    for name, _, i in coords:
+        cols[name] = np.asarray(q, float)[i] * RAD2DEG
+    for _, name, i in coords:
+        cols[name] = np.asarray(v, float)[i] * RAD2DEG
     return cols
 
 
@@ -125,7 +152,7 @@ def dynamic_analysis(model, run_dir=None) -> Result:
             q_good, t_good = q[:, -1], float(tk[-1])
             report(f"dynamic: t = {t_good:.4g} s of {float(times[-1]):.4g} s")
             cardan.update(tk, q)
-            cols = chunk_columns(model, tk, model.core.sample(tk, q, v))
+            cols = chunk_columns(model, tk, model.core.sample(tk, q, v), q, v)
             if writer is not None:
                 writer.write(cols)
             if in_memory:

@@ -102,7 +102,7 @@ def flight_analysis(model, run_dir=None) -> Result:
                        f"(two successive revolutions still differ by {last} > periodic_tol = {tol:g} m); "
                        "more revolutions (max_revolutions), more damping, or a looser periodic_tol")
     sample = model.core.sample(t_last, q_last, v_last)
-    ts = chunk_columns(model, t_last, sample)
+    ts = chunk_columns(model, t_last, sample, q_last, v_last)
     files = {}
     if run_dir is not None:
         writer = TimeseriesWriter(run_dir.path("timeseries.csv"), list(ts), "csv")
