@@ -1,5 +1,5 @@
 """Command line (``rotorcable`` or ``python -m pydriver``): ``run DECK [--out DIR] [--plots]
-[--report] [--json]``, ``study NAME``,
+[--report] [--vtk] [--json]``, ``study NAME``,
 ``sweep BASE --set GROUP.KEY=VALUES ... --out DIR`` (and ``sweep-task``/``sweep-collect`` for
 Slurm arrays)."""
 
@@ -51,6 +51,9 @@ def main(argv=None) -> int:
     run.add_argument("--plots", action="store_true", help="also write PNG plots (matplotlib)")
     run.add_argument("--report", action="store_true",
                      help="also write report.html: inputs, results and plots on one self-contained page")
+    run.add_argument("--vtk", action="store_true",
+                     help="also write a ParaView time series of the cable (flight and dynamic runs): "
+                          "cable.pvd and cable_NNNN.vtu")
     run.add_argument("--json", action="store_true", help="print summary.json instead of the readable summary")
     loud = run.add_mutually_exclusive_group()
     loud.add_argument("-v", "--verbose", action="store_true",
@@ -94,7 +97,7 @@ def main(argv=None) -> int:
                 from pydriver.model import Model
                 target = Model.from_deck(deck).with_changes({"refinement.levels": 3})
             with progress.run_progress(Path(deck).name):
-                res = run_deck(target, out=out, plots=args.plots, report=args.report)
+                res = run_deck(target, out=out, plots=args.plots, report=args.report, vtk=args.vtk)
         except (DeckError, RunError) as exc:
             print(f"error: {exc}", file=sys.stderr)
             status = 1

@@ -189,8 +189,10 @@ def outputs_markdown() -> str:
              "A unit `*` depends on the deck (the S-N curve's quantity) or on the row (refinement.csv's `unit`).",
              "", "Besides the tables: `summary.json` (every scalar result, warnings, solver statistics), "
              "`table.txt` (the equilibrium in the layout of the thesis's appendix; English, or German with "
-             "`&output table_language = 'de'`), `report.html`, the PNG plots, and `.rotorcable-run.json` "
-             "(the marker listing the run's files).", ""]
+             "`&output table_language = 'de'`), `report.html` (with the cable's animation for flight and dynamic "
+             "runs), the PNG plots, `cable.pvd` and `cable_NNNN.vtu` (`--vtk`: a ParaView time series of the "
+             "cable, point data strain, bending moment and damage), and `.rotorcable-run.json` (the marker "
+             "listing the run's files).", ""]
     files = sorted({f for c in COLUMNS for f in c.files})
     for f in files:
         lines += [f"## `{f}`", "", "| column | unit | meaning |", "|---|---|---|"]

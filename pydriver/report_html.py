@@ -65,8 +65,9 @@ def _images(result) -> list[tuple[str, str]]:
     return out
 
 
-def html_report(result, model=None) -> str:
-    """The report page of a run."""
+def html_report(result, model=None, timeseries_path=None) -> str:
+    """The report page of a run (``timeseries_path``: the run's ``timeseries.h5`` or ``.csv``
+    when its time series was kept on disk only, for the animation)."""
     s = result.summary
     parts = [f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>{html.escape(s['case'])}</title>"
              f"<style>{STYLE}</style></head><body>",
@@ -125,6 +126,8 @@ def html_report(result, model=None) -> str:
         parts.append("<h2>Fatigue hotspots</h2>"
                      f"<p>{html.escape(f['description'])}</p>"
                      + _table(["rank", "quantity", "damage per flight hour", "life [h]", "DEL amplitude"], rows, left=2))
+    from pydriver.animation import animation_html
+    parts.append(animation_html(result, model, timeseries_path))
     images = _images(result)
     if images:
         parts.append("<h2>Figures</h2>")

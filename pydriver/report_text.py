@@ -94,9 +94,25 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
         lines.append(f"  warning: {w}")
     if files:
         folder = {str(p.parent) for p in files.values()}
-        names = ", ".join(sorted(p.name for p in files.values()))
+        names = ", ".join(_collapse_series(sorted(p.name for p in files.values())))
         lines.append(f"  files: {' '.join(sorted(folder))}/ ({names})")
     return "\n".join(lines)
+
+
+def _collapse_series(names: list[str]) -> list[str]:
+    """File names with numbered series shown as their first and last (``cable_0000.vtu ...
+    cable_0359.vtu (360 files)``): a ParaView export writes hundreds."""
+    import re
+    out, series = [], {}
+    for name in names:
+        m = re.fullmatch(r"(.*_)(\d{4})(\.\w+)", name)
+        if m:
+            series.setdefault((m.group(1), m.group(3)), []).append(name)
+        else:
+            out.append(name)
+    for group in series.values():
+        out.append(group[0] if len(group) == 1 else f"{group[0]} ... {group[-1]} ({len(group)} files)")
+    return sorted(out)
 
 
 def _resonance_lines(block: dict | None) -> list[str]:

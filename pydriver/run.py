@@ -12,7 +12,7 @@ from pydriver.output import RunDirectory, write_files
 from pydriver.result import Result, require_finite
 
 
-def run_deck(path, out=None, plots: bool = False, report: bool = False) -> Result:
+def run_deck(path, out=None, plots: bool = False, report: bool = False, vtk: bool = False) -> Result:
     """Run a deck and return its results; write files only when ``out`` is given.
 
     Parameters
@@ -26,7 +26,11 @@ def run_deck(path, out=None, plots: bool = False, report: bool = False) -> Resul
     plots : bool
         Also write PNG plots (needs matplotlib).
     report : bool
-        Also write ``report.html``, one self-contained page with the inputs, results and plots.
+        Also write ``report.html``, one self-contained page with the inputs, results, plots and
+        (flight and dynamic runs) an animation of the cable.
+    vtk : bool
+        Also write a ParaView time series of the cable (flight and dynamic runs): ``cable.pvd``
+        and ``cable_NNNN.vtu`` (:mod:`pydriver.paraview`).
 
     Returns
     -------
@@ -54,9 +58,16 @@ def run_deck(path, out=None, plots: bool = False, report: bool = False) -> Resul
         result = run(model, run_dir)
         require_finite(result, model.name)
         write_files(result, run_dir, plots, table_language=model.deck["output.table_language"])
+        # A time series kept on disk only (too large for memory) is read back at the frames.
+        on_disk = None
+        if result.timeseries is None:
+            on_disk = next((p for p in map(run_dir.path, ("timeseries.h5", "timeseries.csv")) if p.exists()), None)
+        if vtk:
+            from pydriver.paraview import write_vtk
+            write_vtk(result, run_dir, on_disk)
         if report:
             from pydriver.report_html import html_report
-            run_dir.path("report.html").write_text(html_report(result, model), encoding="utf-8")
+            run_dir.path("report.html").write_text(html_report(result, model, on_disk), encoding="utf-8")
             result.files["report.html"] = run_dir.out / "report.html"
         run_dir.commit()
     return result

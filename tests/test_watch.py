@@ -1,0 +1,173 @@
+"""Watch the cable (issue 22, item 6): the ParaView export and the report's animation show the
+time series' own cable.
+
+The flight deck is the main job's (uh60_part2_forward_flight_cable) at its deck n = 11
+without refinement, for speed; the report's size at n = 44 is extrapolated here from the
+embedded data's size per joint point and measured in README.md ("Watch it").
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+
+import meshio
+import numpy as np
+import pytest
+
+import pydriver
+from conftest import INPUTS
+from pydriver.animation import UNIT_M, read_embedded
+from pydriver.frames import frame_rows, joint_points
+from pydriver.model import Model
+
+FLIGHT = INPUTS / "uh60_part2_forward_flight_cable.nml"
+MB = 1.0e6
+
+
+def _flight_model():
+    return Model.from_deck(FLIGHT).with_changes({"refinement.levels": 1})
+
+
+@pytest.fixture(scope="module")
+def flight(tmp_path_factory):
+    out = tmp_path_factory.mktemp("watch") / "run"
+    res = pydriver.run_deck(_flight_model(), out=out, report=True, vtk=True)
+    return res, out
+
+
+def _pvd(out):
+    """(time [s], file name) of every entry of cable.pvd."""
+    root = ET.parse(out / "cable.pvd").getroot()
+    return [(float(d.get("timestep")), d.get("file")) for d in root.iter("DataSet")]
+
+
+def test_flight_writes_one_file_per_sample_of_the_revolution(flight):
+    """360 samples per revolution: 360 frames (the 361st sample is the first again), each
+    file listed in the pvd, in result.files and in the run's marker."""
+    res, out = flight
+    entries = _pvd(out)
+    n_rows = len(res.timeseries["t"])
+    assert n_rows == 361 and len(entries) == 360
+    assert [f for _, f in entries] == [f"cable_{k:04d}.vtu" for k in range(360)]
+    assert {f for _, f in entries} | {"cable.pvd"} <= set(res.files)
+    assert all((out / f).is_file() for _, f in entries)
+    assert [t for t, _ in entries] == [float(t) for t in res.timeseries["t"][:360]]
+
+
+@pytest.mark.parametrize("frame", [0, 90, 359])
+def test_vtk_frame_reads_back_with_meshio_at_its_time(flight, frame):
+    """The file of the frame at time t holds the joint points of the time-series row at t.
+    Points are stored as float64 in binary: equal to the bit (tolerance 0), and to the core's
+    own joint points to 1e-14 m (the CM recursion of pydriver.frames: one rounding per body)."""
+    res, out = flight
+    ts = res.timeseries
+    n = res.summary["n_bodies"]
+    t, name = _pvd(out)[frame]
+    row = int(np.flatnonzero(ts["t"] == t)[0])                 # the time picks the row, exactly
+    mesh = meshio.read(out / name)
+    assert mesh.points.dtype == np.float64 and mesh.points.shape == (n + 1, 3)
+    np.testing.assert_array_equal(mesh.points, joint_points(ts, n, [row])[0])
+    np.testing.assert_allclose(mesh.points, res.extra["shape_joints"][:, :, row].T, rtol=0, atol=1e-14)
+    assert [c.type for c in mesh.cells] == ["line"] and len(mesh.cells[0].data) == n
+    strain = [ts[f"strain{j + 1}"][row] for j in range(n)]
+    np.testing.assert_array_equal(mesh.point_data["strain"], strain + strain[-1:])   # tip repeats joint n
+    bending = [ts[f"bending{j + 1}_Nm"][row] for j in range(n)]
+    np.testing.assert_array_equal(mesh.point_data["bending_Nm"], bending + bending[-1:])
+    damage = list(res.extra["tables"]["fatigue.csv"]["damage_per_hour"])
+    np.testing.assert_array_equal(mesh.point_data["damage_per_hour"], damage + damage[-1:])
+
+
+def test_animation_data_match_the_time_series(flight):
+    """Frames, positions (0.1 mm integers: within half a unit), strain and damage (3
+    significant digits: within 0.5 % relative) and the azimuth slider (0.1 deg) as in the
+    time series and the fatigue table."""
+    res, out = flight
+    ts = res.timeseries
+    n = res.summary["n_bodies"]
+    data = read_embedded((out / "report.html").read_text(encoding="utf-8"))
+    assert data["n"] == n and len(data["p"]) == len(ts["t"]) - 1 == 360
+    assert data["rows"] == list(range(360))
+    p = np.asarray(data["p"], float).reshape(360, n + 1, 3) * data["unit_m"]
+    assert data["unit_m"] == UNIT_M
+    exact = res.extra["shape_joints"][:, :, :360].transpose(2, 1, 0)
+    assert np.max(np.abs(p - exact)) <= 0.5 * UNIT_M + 1e-12
+    strain = np.column_stack([ts[f"strain{j + 1}"][:360] for j in range(n)])
+    np.testing.assert_allclose(np.asarray(data["strain"]), strain, rtol=5e-3, atol=0)
+    np.testing.assert_allclose(data["strain_max"], strain.max(), rtol=5e-3)
+    np.testing.assert_allclose(data["damage"], res.extra["tables"]["fatigue.csv"]["damage_per_hour"], rtol=5e-3)
+    assert np.max(np.abs(np.asarray(data["axis"]["values"]) - ts["azimuth_deg"][:360])) <= 0.05 + 1e-9
+    hub = np.asarray(data["hub"]) * UNIT_M
+    np.testing.assert_allclose(hub, res.summary["rotor"]["centre_m"], atol=0.5 * UNIT_M)
+    assert data["clamp_b"] is True
+
+
+def test_report_is_self_contained_and_small(flight):
+    """No outside script, stylesheet or CDN; under 5 MB at n = 11, and the animation's data
+    extrapolated to n = 44 (size proportional to the joint points) keep it under 5 MB too."""
+    _, out = flight
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert "<script src" not in page and "<link" not in page
+    assert "http://" not in page and "https://" not in page
+    assert "id='cable-canvas'" in page and "id='cable-slider'" in page and "id='cable-play'" in page
+    size = len(page.encode())
+    start = page.index('id="cable-data">')
+    embedded = len(page[start:page.index("</script>", start)].encode())
+    n = 11
+    at_44 = size - embedded + embedded * (44 + 1) / (n + 1)
+    assert size < 5 * MB and at_44 < 5 * MB, (size, at_44)
+
+
+def test_frame_rows():
+    """A periodic record drops its closing sample; a long dynamic run is decimated evenly to at
+    most max_frames, first and last sample included."""
+    np.testing.assert_array_equal(frame_rows(361, True, 720), np.arange(360))
+    np.testing.assert_array_equal(frame_rows(501, False, 1000), np.arange(501))
+    rows = frame_rows(5001, False, 1000)
+    assert len(rows) <= 1000 and rows[0] == 0 and rows[-1] == 5000
+    assert len(set(np.diff(rows[:-1]))) == 1
+    rows = frame_rows(2001, False, 1000)
+    assert len(rows) <= 1000 and rows[-1] == 2000
+
+
+@pytest.mark.parametrize("fmt", ["hdf5", "csv"])
+def test_dynamic_run_streamed_to_disk_animates_from_the_file(fmt, tmp_path, monkeypatch):
+    """A dynamic run whose time series stays on disk only (too large for memory) reads its
+    frames back from the file: the same animation data and VTK points as in memory."""
+    model = Model.from_deck(INPUTS / "six_link_dynamic.nml").with_changes({"solver.t_end": 0.3,
+                                                                          "solver.output_format": fmt})
+    ref = pydriver.run_deck(model, out=tmp_path / "memory", report=True, vtk=True)
+    from pydriver.analyses import dynamics
+    monkeypatch.setattr(dynamics, "MEMORY_LIMIT", 0.0)
+    res = pydriver.run_deck(model, out=tmp_path / "disk", report=True, vtk=True)
+    assert res.timeseries is None and ("timeseries.h5" if fmt == "hdf5" else "timeseries.csv") in res.files
+    a = read_embedded((tmp_path / "memory" / "report.html").read_text(encoding="utf-8"))
+    b = read_embedded((tmp_path / "disk" / "report.html").read_text(encoding="utf-8"))
+    assert a == b and len(a["p"]) == len(ref.timeseries["t"]) and a["axis"]["label"] == "t"
+    last = f"cable_{len(a['p']) - 1:04d}.vtu"
+    np.testing.assert_array_equal(meshio.read(tmp_path / "disk" / last).points,
+                                  meshio.read(tmp_path / "memory" / last).points)
+
+
+def test_a_failed_export_leaves_nothing(tmp_path, monkeypatch):
+    """The files go through the run directory: an export that fails half-way leaves no
+    output directory and no temporary behind."""
+    calls = []
+
+    def failing(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 5:
+            raise OSError("disk full (simulated)")
+        return write(*args, **kwargs)
+
+    write = meshio.write_points_cells
+    monkeypatch.setattr(meshio, "write_points_cells", failing)
+    with pytest.raises(OSError, match="simulated"):
+        pydriver.run_deck(_flight_model(), out=tmp_path / "run", vtk=True)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_static_run_has_nothing_to_watch(tmp_path):
+    """A static run has no time series: --vtk writes no cable files, the report no animation."""
+    res = pydriver.run_deck(INPUTS / "six_link_static.nml", out=tmp_path / "run", report=True, vtk=True)
+    assert not any(name.startswith("cable") for name in res.files)
+    assert read_embedded((tmp_path / "run" / "report.html").read_text(encoding="utf-8")) is None
