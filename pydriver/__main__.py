@@ -54,6 +54,9 @@ def main(argv=None) -> int:
     run.add_argument("--vtk", action="store_true",
                      help="also write a ParaView time series of the cable (flight and dynamic runs): "
                           "cable.pvd and cable_NNNN.vtu")
+    run.add_argument("--restart", metavar="DIR",
+                     help="continue the dynamic run in DIR from its end to this deck's t_end (same model; "
+                          "&solver checkpoint_interval makes it match the uninterrupted run exactly)")
     run.add_argument("--json", action="store_true", help="print summary.json instead of the readable summary")
     loud = run.add_mutually_exclusive_group()
     loud.add_argument("-v", "--verbose", action="store_true",
@@ -97,7 +100,8 @@ def main(argv=None) -> int:
                 from pydriver.model import Model
                 target = Model.from_deck(deck).with_changes({"refinement.levels": 3})
             with progress.run_progress(Path(deck).name):
-                res = run_deck(target, out=out, plots=args.plots, report=args.report, vtk=args.vtk)
+                res = run_deck(target, out=out, plots=args.plots, report=args.report, vtk=args.vtk,
+                              restart=args.restart)
         except (DeckError, RunError) as exc:
             print(f"error: {exc}", file=sys.stderr)
             status = 1

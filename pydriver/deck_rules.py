@@ -196,8 +196,16 @@ def _blade(deck: Deck):
 
 
 def _output_times(deck: Deck):
+    interval = deck["solver.checkpoint_interval"]
     if deck["case.analysis"] != "dynamic":
+        if interval:
+            deck.fail("solver", "checkpoint_interval", "checkpoints are for dynamic runs")
         return
+    if interval:
+        steps = interval / deck["solver.dt_out"]
+        if abs(steps - round(steps)) > 1e-9 * max(steps, 1.0) or round(steps) < 1:
+            deck.fail("solver", "checkpoint_interval", f"must be a multiple of dt_out = {deck['solver.dt_out']:g} s "
+                                                       f"(got {interval:g} s = {steps:.6g} dt_out)")
     n = deck["solver.t_end"] / deck["solver.dt_out"]
     if not math.isfinite(n) or n + 1 > MAX_SAMPLES:
         deck.fail("solver", "dt_out", f"t_end / dt_out = {n:.3g} output samples: more than {MAX_SAMPLES:.0e}; "

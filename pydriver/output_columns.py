@@ -190,7 +190,7 @@ def outputs_markdown() -> str:
              "", "Besides the tables: `summary.json` (every scalar result, warnings, solver statistics), "
              "`table.txt` (the equilibrium in the layout of the thesis's appendix; English, or German with "
              "`&output table_language = 'de'`), `report.html` (with the cable's animation for flight and dynamic "
-             "runs), the PNG plots, `cable.pvd` and `cable_NNNN.vtu` (`--vtk`: a ParaView time series of the "
+             "runs), the PNG plots, `checkpoint.npz` (dynamic runs: the end state for `run --restart`), `cable.pvd` and `cable_NNNN.vtu` (`--vtk`: a ParaView time series of the "
              "cable, point data strain, bending moment and damage), and `.rotorcable-run.json` (the marker "
              "listing the run's files).", ""]
     files = sorted({f for c in COLUMNS for f in c.files})

@@ -12,7 +12,8 @@ from pydriver.output import RunDirectory, write_files
 from pydriver.result import Result, require_finite
 
 
-def run_deck(path, out=None, plots: bool = False, report: bool = False, vtk: bool = False) -> Result:
+def run_deck(path, out=None, plots: bool = False, report: bool = False, vtk: bool = False,
+             restart=None) -> Result:
     """Run a deck and return its results; write files only when ``out`` is given.
 
     Parameters
@@ -31,6 +32,9 @@ def run_deck(path, out=None, plots: bool = False, report: bool = False, vtk: boo
     vtk : bool
         Also write a ParaView time series of the cable (flight and dynamic runs): ``cable.pvd``
         and ``cable_NNNN.vtu`` (:mod:`pydriver.paraview`).
+    restart : str or Path, optional
+        A finished dynamic run's directory to continue from its end to this deck's ``t_end``
+        (:mod:`pydriver.checkpoint`); the deck must describe the same model.
 
     Returns
     -------
@@ -50,12 +54,17 @@ def run_deck(path, out=None, plots: bool = False, report: bool = False, vtk: boo
         The output directory cannot be written (raised before the computation).
     """
     model = path if isinstance(path, Model) else Model.from_deck(path)
+    checkpoint = None
+    if restart is not None:
+        from pydriver import checkpoint as ck
+        checkpoint = ck.read(restart, model.name)
+        ck.check_same_model(model, checkpoint)
     if out is None:
-        result = run(model)
+        result = run(model, restart=checkpoint)
         require_finite(result, model.name)
         return result
     with RunDirectory(Path(out), deck=model.name) as run_dir:
-        result = run(model, run_dir)
+        result = run(model, run_dir, restart=checkpoint)
         require_finite(result, model.name)
         write_files(result, run_dir, plots, table_language=model.deck["output.table_language"])
         # A time series kept on disk only (too large for memory) is read back at the frames.

@@ -306,6 +306,9 @@ def _keys() -> list[Key]:
                 "factors at most)"))
     add(Key("solver", "vector_kernels", "str", default="compiled", choices=("compiled", "sundials"),
             doc="IDA's N_Vector operations: compiled loops or the library's own"))
+    add(Key("solver", "checkpoint_interval", "real", unit="s", default=0.0, low=0.0, high=1.0e7, tiny=1.0e-9,
+            doc="dynamic: IDA starts afresh every this many seconds (a multiple of dt_out; 0: never), so that "
+                "a continuation (run --restart DIR) reproduces the uninterrupted run exactly"))
     add(Key("solver", "periodic_tol", "real", unit="m", default=1.0e-6, low=1.0e-14, high=1.0,
             doc="flight: two successive revolutions differ by less than this (max CM distance)"))
     add(Key("solver", "max_revolutions", "int", default=60, low=2, high=10_000, doc="flight: revolution budget"))

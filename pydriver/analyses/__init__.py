@@ -6,11 +6,16 @@ flight runs end with their resonance margins (:mod:`pydriver.analyses.resonance`
 from __future__ import annotations
 
 
-def run(model, run_dir=None):
+def run(model, run_dir=None, restart=None):
     """Run the deck's analysis; time series stream into ``run_dir`` (an output.RunDirectory).
     With ``&refinement levels > 1`` the analysis runs at n, 2n, 4n ... bodies
-    (:mod:`pydriver.analyses.refinement`)."""
-    if model.deck["refinement.levels"] > 1:
+    (:mod:`pydriver.analyses.refinement`).  ``restart`` (a checkpoint) continues a dynamic run."""
+    if restart is not None:
+        if model.deck["refinement.levels"] > 1:
+            model.deck.fail("refinement", "levels", "--restart continues one run at one n: set levels = 1")
+        from pydriver.analyses import dynamics
+        result = dynamics.dynamic_analysis(model, run_dir, restart=restart)
+    elif model.deck["refinement.levels"] > 1:
         from pydriver.analyses.refinement import run_refined
         result = run_refined(model, run_dir, run_single)
     else:

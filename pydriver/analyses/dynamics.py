@@ -24,6 +24,29 @@ CHUNK = 2000
 MEMORY_LIMIT = 1.0e9
 
 
+def output_grid(t_end: float, dt_out: float, interval: float = 0.0, restart_at: float | None = None):
+    """(times, segment starts): the output times and the indices where IDA starts afresh, at
+    t = k * interval (``&solver checkpoint_interval``) and at a continuation's start.  Those
+    times are set exactly (k * interval, not k * m * dt_out), so a run and its continuation cut
+    at the same instants bit for bit (pydriver/checkpoint.py)."""
+    t = output_times(t_end, dt_out)
+    marks = []
+    if interval > 0.0:
+        marks += [k * interval for k in range(1, int(np.floor(t_end / interval * (1.0 + 1e-12))) + 1)]
+    if restart_at is not None:
+        marks.append(restart_at)
+    starts = {0}
+    for m in marks:
+        if m >= t[-1]:
+            continue
+        i = int(round(m / dt_out))
+        if abs(t[i] - m) > 1e-9 * max(dt_out, abs(m)):
+            raise ValueError(f"t = {m:g} s is not on the output grid of dt_out = {dt_out:g} s")
+        t[i] = m
+        starts.add(i)
+    return t, sorted(starts)
+
+
 def output_times(t_end: float, dt_out: float, t0: float = 0.0) -> np.ndarray:
     """t0, t0 + dt_out, ... and exactly t_end last (never beyond it, never short of it)."""
     n = int(np.floor((t_end - t0) / dt_out * (1.0 + 1e-12)))
@@ -112,11 +135,16 @@ def start_state(model):
     return model.q0, model.v0
 
 
-def dynamic_analysis(model, run_dir=None) -> Result:
-    """Integrate and sample; the time series streams into ``run_dir`` if given."""
+def dynamic_analysis(model, run_dir=None, restart=None) -> Result:
+    """Integrate and sample; the time series streams into ``run_dir`` if given.  ``restart``
+    (a :class:`pydriver.checkpoint.Checkpoint`) continues the run it was written by."""
     t_wall = time.perf_counter()
     s = model.deck.values["solver"]
-    times = output_times(s["t_end"], s["dt_out"])
+    try:
+        times, starts = output_grid(s["t_end"], s["dt_out"], s["checkpoint_interval"],
+                                    restart.t if restart is not None else None)
+    except ValueError as exc:
+        model.deck.fail("solver", "checkpoint_interval" if restart is None else "t_end", str(exc))
     names = column_names(model)
     n_values = len(times) * len(names)
     in_memory = n_values * 8 <= MEMORY_LIMIT
@@ -131,43 +159,41 @@ def dynamic_analysis(model, run_dir=None) -> Result:
     if run_dir is not None:
         fname = "timeseries.csv" if fmt == "csv" else "timeseries.h5"
         writer = TimeseriesWriter(run_dir.path(fname), names, fmt)
-    q0, v0 = start_state(model)
-    session = model.core.start(model.solver_settings(), float(times[0]), q0, v0)
     kept, energy, g_max, q_all = [], [], [], []
     cardan = ClosestApproach(model)
-    q_good, t_good = session.q0, float(times[0])
+    if restart is not None:
+        first = starts.index(int(np.searchsorted(times, restart.t)))
+        earlier = _earlier_columns(model, restart, names)
+        cardan.update(earlier["t"], np.radians(np.array([earlier[c] for c, _, _ in coordinate_columns(model)])))
+        if writer is not None:
+            writer.write(earlier)
+        if in_memory:
+            kept.append(earlier)
+            q_earlier = np.zeros((len(earlier["t"]), model.nq))
+            for c, _, i in coordinate_columns(model):
+                q_earlier[:, i] = np.radians(earlier[c])
+            q_all.append(q_earlier)
+        energy.append(earlier["E_kin_J"] + earlier["E_pot_J"])
+        g_max.append(earlier["g_max_m"])
+        tail = [earlier]
+        q_seg, v_seg = restart.q, restart.v
+    else:
+        first = 0
+        q_seg, v_seg = start_state(model)
+        tail = []
+    stats = {}
     try:
-        for start in range(0, len(times), CHUNK):
-            tk = times[start:start + CHUNK]
-            try:
-                if start == 0:
-                    q, v = session.advance(tk[1:])
-                    q = np.column_stack([session.q0, q])
-                    v = np.column_stack([session.v0, v])
-                else:
-                    q, v = session.advance(tk)
-            except RunError as exc:
-                # A support on the blade may have carried clamp B out of the cable's reach.
-                raise reach_error(model, q_good, t_good, float(tk[-1]), exc) from exc
-            q_good, t_good = q[:, -1], float(tk[-1])
-            report(f"dynamic: t = {t_good:.4g} s of {float(times[-1]):.4g} s")
-            cardan.update(tk, q)
-            cols = chunk_columns(model, tk, model.core.sample(tk, q, v), q, v)
-            if writer is not None:
-                writer.write(cols)
-            if in_memory:
-                kept.append(cols)
-                q_all.append(q.T)
-            energy.append(cols["E_kin_J"] + cols["E_pot_J"])
-            g_max.append(cols["g_max_m"])
+        bounds = starts[first:] + [len(times) - 1]
+        for a, b in zip(bounds[:-1], bounds[1:]):
+            q_seg, v_seg, seg_stats = _segment(model, times[a:b + 1], q_seg, v_seg, a == 0 and restart is None,
+                                               writer, in_memory, kept, q_all, energy, g_max, cardan, tail)
+            stats = {k: stats.get(k, 0) + x for k, x in seg_stats.items()}
     finally:
-        session.close()
         if writer is not None:
             writer.close()
-    stats = dict(session.stats)
     energy = np.concatenate(energy)
     g_max = np.concatenate(g_max)
-    last = kept[-1] if kept else cols
+    last = tail[-1]
     w_end = [float(last[n][-1]) if n in last else 0.0 for n in REACTION_NAMES]
     summary = base_summary(model, "dynamic", time.perf_counter() - t_wall)
     summary.update(solver=stats, linear_solver=model.linear_solver(), max_constraint_violation_m=float(np.max(g_max)) if model.nc else 0.0,
@@ -187,6 +213,12 @@ def dynamic_analysis(model, run_dir=None) -> Result:
                            "q": np.concatenate(q_all) if in_memory else None})
     if writer is not None:
         result.files[writer.path.name] = run_dir.out / writer.path.name
+        from pydriver import checkpoint
+        checkpoint.write(run_dir.path(checkpoint.FILE), model, float(times[-1]), q_seg, v_seg)
+        result.files[checkpoint.FILE] = run_dir.out / checkpoint.FILE
+    if restart is not None:
+        summary["restarted_from"] = {"directory": str(restart.directory), "t_s": restart.t,
+                                     "note": "solver statistics are the continuation's"}
     _decay(model, result)
     if "fatigue" in model.deck.groups:
         if timeseries is None:
@@ -202,6 +234,63 @@ def dynamic_analysis(model, run_dir=None) -> Result:
         if warnings:
             summary.setdefault("warnings", []).extend(warnings)
     return result
+
+
+def _segment(model, tk_all, q0, v0, include_start, writer, in_memory, kept, q_all, energy, g_max, cardan, tail):
+    """Integrate one segment (a fresh IDA session from q0, v0 at tk_all[0]) over its output
+    times; the start sample is written only for the run's first segment (every later one's is
+    the previous segment's last).  Returns the state at its end and its solver statistics."""
+    session = model.core.start(model.solver_settings(), float(tk_all[0]), q0, v0)
+    q_good, t_good = session.q0, float(tk_all[0])
+    try:
+        for start in range(0, len(tk_all), CHUNK):
+            tk = tk_all[start:start + CHUNK]
+            try:
+                if start == 0:
+                    q, v = session.advance(tk[1:])
+                    q = np.column_stack([session.q0, q])
+                    v = np.column_stack([session.v0, v])
+                else:
+                    q, v = session.advance(tk)
+            except RunError as exc:
+                # A support on the blade may have carried clamp B out of the cable's reach.
+                raise reach_error(model, q_good, t_good, float(tk[-1]), exc) from exc
+            q_good, t_good = q[:, -1], float(tk[-1])
+            v_good = v[:, -1]
+            report(f"dynamic: t = {t_good:.4g} s")
+            if start == 0 and not include_start:
+                tk, q, v = tk[1:], q[:, 1:], v[:, 1:]
+                if len(tk) == 0:
+                    continue
+            cardan.update(tk, q)
+            cols = chunk_columns(model, tk, model.core.sample(tk, q, v), q, v)
+            if writer is not None:
+                writer.write(cols)
+            if in_memory:
+                kept.append(cols)
+                q_all.append(q.T)
+            energy.append(cols["E_kin_J"] + cols["E_pot_J"])
+            g_max.append(cols["g_max_m"])
+            tail[:] = [cols]
+    finally:
+        session.close()
+    return q_good, v_good, dict(session.stats)
+
+
+def _earlier_columns(model, restart, names) -> dict:
+    """The time series of the run being continued, read back from its directory."""
+    from pydriver.output import read_timeseries
+    path = next((restart.directory / f for f in ("timeseries.csv", "timeseries.h5")
+                 if (restart.directory / f).is_file()), None)
+    if path is None:
+        model.deck.fail("solver", "t_end", f"--restart {restart.directory}: its time series is missing")
+    cols = read_timeseries(path)
+    missing = [n for n in names if n not in cols]
+    if missing:
+        model.deck.fail("solver", "t_end", f"--restart {restart.directory}: its time series lacks "
+                                           f"{', '.join(missing[:4])} (written by another version)")
+    keep = cols["t"] <= restart.t
+    return {n: np.asarray(cols[n], float)[keep] for n in names}
 
 
 def _decay(model, result: Result):

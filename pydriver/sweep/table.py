@@ -67,9 +67,10 @@ def summary_row(summary: dict) -> dict:
     if summary.get("damped_frequencies_hz"):
         row["f1_damped_hz"] = summary["damped_frequencies_hz"][0]
         row["zeta1"] = summary["damping_ratios"][0]
-    elif "decay" in summary:
+    elif "f_damped_hz" in summary.get("decay", {}):       # a run too short for a decay has none
         row["f1_damped_hz"] = summary["decay"]["f_damped_hz"]
-        row["zeta1"] = summary["decay"]["zeta"]
+        if "zeta" in summary["decay"]:
+            row["zeta1"] = summary["decay"]["zeta"]
     if "energy_drift_rel" in summary:
         row["energy_drift_rel"] = summary["energy_drift_rel"]
     for k, v in summary.get("solver", {}).items():
