@@ -147,15 +147,24 @@ def refinement_table(refinement: dict) -> dict:
 
 def run_refined(model, run_dir, analyse):
     """Run ``analyse(model, run_dir)`` at n, 2n, 4n ...; the finest run's result with
-    summary['refinement'] added."""
+    summary['refinement'] added (a Campbell diagram: every tracked frequency and crossing speed,
+    :func:`pydriver.analyses.campbell.refine_diagram`)."""
     from pydriver.model import Model
     levels = int(model.deck["refinement.levels"])
     models = [model if k == 0 else Model(refined_deck(model.deck, 2 ** k)) for k in range(levels)]
-    summaries = [analyse(m, None).summary for m in models[:-1]]
+    # A Campbell diagram is a grid of frequencies and a list of crossings, not a few scalars:
+    # its coarse results are kept whole (small); other runs keep only their summaries (a
+    # flight's time series need not stay in memory).
+    diagram = model.analysis == "campbell"
+    coarse = [(lambda r: r if diagram else r.summary)(analyse(m, None)) for m in models[:-1]]
     result = analyse(models[-1], run_dir)
-    summaries.append(result.summary)
     ns = [m.n_bodies for m in models]
-    refinement, warnings = extrapolate(summaries, ns, float(model.deck["refinement.expected_order"]))
+    expected = float(model.deck["refinement.expected_order"])
+    if diagram:
+        from pydriver.analyses.campbell import refine_diagram
+        refinement, warnings = refine_diagram([*coarse, result], ns, expected)
+    else:
+        refinement, warnings = extrapolate([*coarse, result.summary], ns, expected)
     result.summary["refinement"] = refinement
     result.summary["deck_n_bodies"] = model.n_bodies
     if warnings:
