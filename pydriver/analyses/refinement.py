@@ -10,7 +10,8 @@ Richardson extrapolation, the observed order and an error estimate
 
 How a deck is refined (:func:`refined_deck`): body j becomes k bodies of length l_j / k; the
 first keeps body j's start angles and rates, the other k - 1 continue it straight (relative
-angles 0), so the start polygon is the deck's own.  Per-body values (diameter, drag
+angles 0), so the start polygon is the deck's own (a ``&shape resample = .true.`` deck's shape
+is instead resampled from its own points at every n, :mod:`pydriver.shape_resample`).  Per-body values (diameter, drag
 coefficient) are repeated; a deck that sets per-joint constants, per-body masses or lengths,
 or a force pulse on one body cannot be refined this way and is refused (deck_rules).
 """
@@ -43,6 +44,8 @@ def refined_deck(deck, factor: int):
             if dotted in ("chain.body_length", "chain.body_mass"):
                 deck.fail(group, name, "per-body lengths or masses cannot be refined: give total_length and "
                                        "a mass per length")
+            if group == "shape" and deck["shape.resample"] and name in ("gamma_deg", "beta_deg"):
+                continue                                   # resampled from the deck's points at every n
             values = np.asarray(deck[dotted], float)
             if group == "shape":
                 fine = np.zeros(n * factor)
