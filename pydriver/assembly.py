@@ -18,6 +18,7 @@ import numpy as np
 from pydriver.core import CoreModel
 from pydriver.deckfile import Deck
 from pydriver.motions import blade_azimuth0, rotor, support_motion
+from pydriver.shape_resample import chain_lengths
 
 DEG = np.pi / 180.0
 RPM = 2.0 * np.pi / 60.0
@@ -51,13 +52,8 @@ def bodies(deck: Deck) -> Bodies:
     if deck.has("chain.body_length"):
         lengths = np.asarray(deck["chain.body_length"], float)
     else:
-        total = deck["chain.total_length"]
-        lengths = np.full(n, total / n)
-        if physical and deck["clamp_b.active"]:
-            # The body held by clamp B is a half element (module docstring).
-            ell = total / (n - 0.5)
-            lengths = np.full(n, ell)
-            lengths[-1] = 0.5 * ell
+        # With clamp B the body it holds is a half element (module docstring).
+        lengths = chain_lengths(n, deck["chain.total_length"], physical and bool(deck["clamp_b.active"]))
     radii = 0.5 * np.asarray(deck["chain.diameter"], float)
     if deck.has("chain.density"):
         masses = deck["chain.density"] * np.pi * radii**2 * lengths          # eq. 4.51

@@ -244,7 +244,5 @@ def _refinement(deck: Deck):
         return
     if "cable" not in deck.groups:
         deck.fail("refinement", "levels", "refining n needs the physical cable parameters (&cable ei, ...), not the thesis's per-joint constants")
-    if deck["case.analysis"] == "campbell":
-        deck.fail("refinement", "levels", "a Campbell diagram is not refined (refine its modal runs instead)")
     if deck.has("chain.body_length"):
         deck.fail("chain", "body_length", "refinement subdivides a uniform chain: give total_length")

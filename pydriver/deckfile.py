@@ -13,7 +13,7 @@ import io
 import math
 import re
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import f90nml
@@ -22,6 +22,7 @@ import numpy as np
 from pydriver.deck_tokens import check_tokens
 from pydriver.errors import DeckError
 from pydriver.schema import GROUPS, REQUIRED_GROUPS, Key, lookup
+from pydriver.shape_resample import resample
 
 # Comments and blank lines are removed before f90nml sees the text: its scanner walks the text
 # one character at a time in Python (26 s for 10 MB of comment lines), a compiled regular
@@ -240,16 +241,54 @@ def validate(raw: dict, starts: dict, name: str) -> Deck:
     n = normalize(n_key, raw["chain"]["n_bodies"], None, 0, name)
     values: dict[str, dict] = {}
     given = set()
+    resampled = "resample" in raw.get("shape", {}) and normalize(
+        lookup("shape", "resample"), raw["shape"]["resample"], starts.get("shape", {}).get("resample"), n, name)
     for group, keys in GROUPS.items():
         values[group] = {}
         for key_name, key in keys.items():
             if key_name in raw.get(group, {}):
                 start = starts.get(group, {}).get(key_name)
+                if resampled and (group, key_name) in RESAMPLED_KEYS:
+                    key = replace(key, shape="list")       # the shape at any number of joints
                 values[group][key_name] = normalize(key, raw[group][key_name], start, n, name)
                 given.add((group, key_name))
             else:
                 values[group][key_name] = default_value(key, n)
+    if resampled:
+        _resample_shape(values, given, name)
     return Deck(name=name, values=values, given=given, groups=set(raw), raw=raw, starts=starts)
+
+
+#: The keys ``&shape resample = .true.`` resamples (pydriver.shape_resample).
+RESAMPLED_KEYS = (("shape", "gamma_deg"), ("shape", "beta_deg"))
+
+
+def _resample_shape(values: dict, given: set, name: str) -> None:
+    """Replace the m-joint start shape of a ``resample = .true.`` deck by the n-body one
+    (:mod:`pydriver.shape_resample`); a DeckError names the key and the reason."""
+    n = int(values["chain"]["n_bodies"])
+    if ("chain", "body_length") in given:
+        raise DeckError(name, "shape", "resample", "resampling along the arc length needs a uniform chain: give "
+                                                   "&chain total_length, not per-body body_length")
+    total = values["chain"]["total_length"]
+    if total is None:
+        raise DeckError(name, "chain", "total_length", "is required with &shape resample = .true. (the arc "
+                                                       "length the shape is resampled along)")
+    counts = {k: len(values["shape"][k]) for g, k in RESAMPLED_KEYS if (g, k) in given}
+    if len(set(counts.values())) > 1:
+        raise DeckError(name, "shape", "beta_deg", "with resample = .true. gamma_deg and beta_deg give the shape at "
+                                                   "the same joints: " + ", ".join(f"{k} has {m} values"
+                                                                                   for k, m in counts.items()))
+    half_last = ("cable", "ei") in given and bool(values["clamp_b"]["active"])
+    for key, m in counts.items():
+        if m > n:
+            raise DeckError(name, "shape", key, f"with resample = .true. the shape is given at m joints of an "
+                                                f"m-body chain, m at most n_bodies = {n}; got {m} values")
+        try:
+            values["shape"][key] = resample(values["shape"][key], n, float(total), half_last)
+        except ValueError as err:
+            raise DeckError(name, "shape", key, f"resample = .true.: {err}; give the shape at fewer joints "
+                                                "or use more bodies") from None
 
 
 def array_length(key: Key, n: int) -> int | None:

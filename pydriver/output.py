@@ -116,8 +116,8 @@ def format_table(result, language: str = "en") -> str:
 
 def _cell(value, integer: bool) -> str:
     """One CSV cell; None (e.g. the life of a joint that takes no damage) is an empty cell."""
-    if value is None:
-        return ""
+    if value is None or (isinstance(value, (float, np.floating)) and not np.isfinite(value)):
+        return ""                      # not defined here (docs/outputs.md): never 'nan' in a file
     if isinstance(value, str):                     # a name: quoted as RFC 4180 wants
         return '"' + value.replace('"', '""') + '"' if any(c in value for c in ',"\n') else value
     return str(int(value)) if integer else _fmt(value)

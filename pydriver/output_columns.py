@@ -83,6 +83,14 @@ COLUMNS = [
     Column(("campbell.csv",), "f_hz", "Hz", "damped frequency of the mode at that speed"),
     Column(("campbell.csv",), "zeta", "-", "damping ratio"),
     Column(("campbell.csv",), "mac", "-", "modal assurance criterion against the previous speed"),
+    Column(("campbell.csv", "campbell_crossings.csv"), "f_extrapolated_hz", "Hz",
+           "Richardson value of the frequency (&refinement; blank where a level has no such mode)"),
+    Column(("campbell.csv", "campbell_crossings.csv"), "f_error_hz", "Hz", "its error estimate"),
+    Column(("campbell.csv", "campbell_crossings.csv"), "f_order", "-", "its observed order of convergence"),
+    Column(("campbell_crossings.csv",), "rpm_n{n}", "rpm", "the crossing speed at n bodies (&refinement)"),
+    Column(("campbell_crossings.csv",), "rpm_extrapolated", "rpm", "Richardson value of the crossing speed"),
+    Column(("campbell_crossings.csv",), "rpm_error", "rpm", "its error estimate"),
+    Column(("campbell_crossings.csv",), "rpm_order", "-", "its observed order of convergence"),
     Column(("campbell_crossings.csv", "resonance.csv"), "harmonic", "-", "rotor harmonic k (k/rev)"),
     Column(("campbell_crossings.csv", "resonance.csv"), "frequency_hz", "Hz", "frequency of the mode"),
     # -- resonance margins -----------------------------------------------------------------------------
@@ -186,7 +194,9 @@ def outputs_markdown() -> str:
              "`pydriver.load_results` and `pydriver.output.read_csv` give the columns by their bare names "
              "(`FA_x`), as before units were added.  `{j}` is a joint or body number (from clamp A), `{k}` a "
              "mode, `{n}` a number of bodies, `{c}` one of x, y, z, `{a}` one of x, y, `{s}` a support, A or B. "
-             "A unit `*` depends on the deck (the S-N curve's quantity) or on the row (refinement.csv's `unit`).",
+             "A unit `*` depends on the deck (the S-N curve's quantity) or on the row (refinement.csv's `unit`). "
+             "A blank cell is a value that does not exist (a life without damage, a crossing missing at one "
+             "refinement level); no file holds NaN or Inf.",
              "", "Besides the tables: `summary.json` (every scalar result, warnings, solver statistics), "
              "`table.txt` (the equilibrium in the layout of the thesis's appendix; English, or German with "
              "`&output table_language = 'de'`), `report.html` (with the cable's animation for flight and dynamic "

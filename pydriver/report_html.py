@@ -111,12 +111,17 @@ def html_report(result, model=None, timeseries_path=None) -> str:
                                                                         s["damping_ratios"]))][:12]
         parts.append("<h2>Natural frequencies</h2>" + _table(["mode", "undamped [Hz]", "damped [Hz]", "zeta"], rows))
     if s["analysis"] == "campbell":
-        rows = [[c["mode"], f"{c['harmonic']}/rev", c["rpm"], c["frequency_hz"]] for c in s["crossings"]]
+        refined = any("rpm_extrapolated" in c for c in s["crossings"])
+        rows = [[c["mode"], f"{c['harmonic']}/rev", c["rpm"], c["frequency_hz"]]
+                + ([c.get("rpm_extrapolated"), c.get("rpm_error"), c.get("rpm_order")] if refined else [])
+                for c in s["crossings"]]
         parts.append("<h2>Campbell diagram: crossings in the operating range</h2>"
                      f"<p>Operating range {s['operating_rpm'][0]:.0f}-{s['operating_rpm'][1]:.0f} rpm; lowest "
                      f"frequency there {_num(s['lowest_frequency_hz'], 4)} Hz against 1/rev up to "
                      f"{_num(s['highest_1rev_hz'], 3)} Hz.</p>"
-                     + (_table(["mode", "harmonic", "rpm", "f [Hz]"], rows) if rows else "<p>No crossings.</p>"))
+                     + (_table(["mode", "harmonic", "rpm", "f [Hz]"]
+                               + (["rpm converged", "error [rpm]", "order"] if refined else []), rows)
+                        if rows else "<p>No crossings.</p>"))
     if s.get("resonance"):
         parts.append(_resonance_section(s["resonance"]))
     if "fatigue" in s:

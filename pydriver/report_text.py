@@ -60,8 +60,10 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
         lines.append(f"  crossings with 1/rev ... {s['harmonics']}/rev in the operating range: "
                      f"{len(s['crossings'])}")
         for c in s["crossings"][:8]:
+            converged = (f", converged {c['rpm_extrapolated']:.1f} +- {_num(c['rpm_error'], 2)} rpm"
+                         if c.get("rpm_extrapolated") is not None else "")
             lines.append(f"    mode {c['mode']} x {c['harmonic']}/rev at {c['rpm']:.0f} rpm "
-                         f"({_num(c['frequency_hz'], 4)} Hz)")
+                         f"({_num(c['frequency_hz'], 4)} Hz){converged}")
     if "peaks" in s:
         p = s["peaks"]
         lines.append(f"  largest bending moment {_num(p['bending']['max_abs'])} Nm at joint "

@@ -101,8 +101,12 @@ def _keys() -> list[Key]:
     add(Key("chain", "joint", "str", default="zy", choices=("zy", "xy", "xyz"),
             doc="joint parametrisation: thesis gamma/beta (zy), Cardan bending (xy), Cardan bending + twist (xyz)"))
     # &shape -------------------------------------------------------------------------------
-    add(Key("shape", "gamma_deg", "real", "body", "deg", low=-180.0, high=180.0, broadcast=False, note=ANGLE_NOTE, doc="start shape: thesis angle gamma of each body"))
-    add(Key("shape", "beta_deg", "real", "body", "deg", low=-180.0, high=180.0, broadcast=False, note=ANGLE_NOTE, doc="start shape: thesis angle beta of each body"))
+    add(Key("shape", "gamma_deg", "real", "body", "deg", low=-180.0, high=180.0, broadcast=False, note=ANGLE_NOTE, doc="start shape: thesis angle gamma of each body (with resample: of each joint of an m-body chain)"))
+    add(Key("shape", "beta_deg", "real", "body", "deg", low=-180.0, high=180.0, broadcast=False, note=ANGLE_NOTE, doc="start shape: thesis angle beta of each body (with resample: of each joint of an m-body chain)"))
+    add(Key("shape", "resample", "bool", default=False,
+            doc="gamma_deg and beta_deg give the start shape as a chain of m bodies (m = the number of values, "
+                "1 ... n_bodies), placed on the n bodies by arc length: a deck's shape for any n "
+                "(docs/model.md, \"Start shape for any n\")"))
     add(Key("shape", "gamma_rate_deg", "real", "body", "deg/s", default=0.0, low=-1.0e6, high=1.0e6, broadcast=False, doc="start rate of gamma (zy only)"))
     add(Key("shape", "beta_rate_deg", "real", "body", "deg/s", default=0.0, low=-1.0e6, high=1.0e6, broadcast=False, doc="start rate of beta (zy only)"))
     # &springs -----------------------------------------------------------------------------

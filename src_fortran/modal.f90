@@ -6,10 +6,13 @@
 !> where K = d(-k - G^T lambda*)/dq is the tangent stiffness including the constraint
 !> curvature weighted by lambda* (rotorcable_statics) and D = d(-k)/dqdot.
 !> Undamped modes: K_r phi = w^2 M_r phi (LAPACK dsygv).  Damped modes: the first-order
-!> pencil [0 I; -K_r -D_r] - s [I 0; 0 M_r] (LAPACK dggev); every undamped mode is paired
-!> with the damped eigenvalue whose displacement part matches it best (modal assurance
-!> criterion, mass weighted).  Overdamped modes (real s) get f_damped = 0 and the modal
-!> damping ratio phi^T D_r phi / (2 w).
+!> system in the undamped modal coordinates eta (z = Z eta, Z^T M_r Z = I, Z^T K_r Z = W),
+!> [0 I; -W -Z^T D_r Z], a standard eigenproblem (LAPACK dgeev; the pencil
+!> [0 I; -K_r -D_r] - s [I 0; 0 M_r] transformed by diag(Z, Z), same eigenvalues, a third of
+!> dggev's QZ cost); every undamped mode is paired with the damped eigenvalue whose displacement
+!> part matches it best (modal assurance criterion, mass weighted: in eta the mass is I).
+!> Overdamped modes (real s) get f_damped = 0 and the modal damping ratio phi^T D_r phi / (2 w).
+!> Cost O(nf^3): issue 21 measured n^3.6 with a per-pair product in q.
 module rotorcable_modal
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error
@@ -30,15 +33,14 @@ module rotorcable_modal
       real(dp), intent(out) :: w(*), work(*)
       integer, intent(out) :: info
     end subroutine dsygv
-    subroutine dggev(jobvl, jobvr, n, a, lda, b, ldb, alphar, alphai, beta, vl, ldvl, vr, ldvr, &
-                     work, lwork, info)
+    subroutine dgeev(jobvl, jobvr, n, a, lda, wr, wi, vl, ldvl, vr, ldvr, work, lwork, info)
       import :: dp
       character, intent(in) :: jobvl, jobvr
-      integer, intent(in) :: n, lda, ldb, ldvl, ldvr, lwork
-      real(dp), intent(inout) :: a(lda, *), b(ldb, *)
-      real(dp), intent(out) :: alphar(*), alphai(*), beta(*), vl(ldvl, *), vr(ldvr, *), work(*)
+      integer, intent(in) :: n, lda, ldvl, ldvr, lwork
+      real(dp), intent(inout) :: a(lda, *)
+      real(dp), intent(out) :: wr(*), wi(*), vl(ldvl, *), vr(ldvr, *), work(*)
       integer, intent(out) :: info
-    end subroutine dggev
+    end subroutine dgeev
   end interface
 
   real(dp), parameter :: TWO_PI = 2.0_dp*acos(-1.0_dp)
@@ -87,9 +89,10 @@ contains
     integer :: nq, nc, nf, info, i, k, best, lwork
     real(dp), allocatable :: basis(:, :), m_full(:, :)
     real(dp), allocatable :: m_r(:, :), k_r(:, :), d_r(:, :), a(:, :), b(:, :), w(:), work(:)
-    real(dp), allocatable :: ar(:), ai(:), be(:), vr(:, :), vl(:, :), z(:, :)
+    real(dp), allocatable :: ar(:), ai(:), vr(:, :), vl(:, :), z(:, :), w_raw(:), d_eta(:, :)
+    real(dp), allocatable :: norm_v(:)
     logical :: halting(3)
-    real(dp) :: wq(1), mac, mac_best, omega, s_re, s_im, w_zero, xr(size(q)), xi(size(q)), num_r, num_i, den_x
+    real(dp) :: wq(1), mac, mac_best, omega, s_re, s_im, w_zero, num_r, num_i, den_x
 
     nq = model%nq; nc = model%nc; nf = nq - nc
     allocate (basis(nq, nf), m_full(nq, nq), m_r(nf, nf), k_r(nf, nf), d_r(nf, nf))
@@ -118,47 +121,52 @@ contains
       call fatal_error(error, 'modal analysis: the equilibrium is unstable (negative stiffness eigenvalue)')
       return
     end if
+    w_raw = w                                 ! the damped system keeps K_r as it is
     where (w < w_zero) w = 0.0_dp
     z = a                                     ! M_r-normalised eigenvectors, columns
     f_undamped = sqrt(w)/TWO_PI
     shapes = matmul(basis, z)
 
-    ! Damped: first-order pencil of size 2 nf.
+    ! Damped: first-order system of size 2 nf in the undamped modal coordinates.  Z^T K_r Z is
+    ! diag(w) to round-off (dsygv's own residual), so W is taken diagonal; D is not.
     deallocate (a, b, work)
-    allocate (a(2*nf, 2*nf), b(2*nf, 2*nf), ar(2*nf), ai(2*nf), be(2*nf), vr(2*nf, 2*nf), vl(1, 1))
-    a = 0.0_dp; b = 0.0_dp
+    d_eta = matmul(transpose(z), matmul(d_r, z))
+    allocate (a(2*nf, 2*nf), ar(2*nf), ai(2*nf), vr(2*nf, 2*nf), vl(1, 1))
+    a = 0.0_dp
     do i = 1, nf
       a(i, nf + i) = 1.0_dp
-      b(i, i) = 1.0_dp
+      a(nf + i, i) = -w_raw(i)
     end do
-    a(nf + 1:, 1:nf) = -k_r
-    a(nf + 1:, nf + 1:) = -d_r
-    b(nf + 1:, nf + 1:) = m_r
+    a(nf + 1:, nf + 1:) = -d_eta
     call fpe_pause(halting)
-    call dggev('N', 'V', 2*nf, a, 2*nf, b, 2*nf, ar, ai, be, vl, 1, vr, 2*nf, wq, -1, info)
+    call dgeev('N', 'V', 2*nf, a, 2*nf, ar, ai, vl, 1, vr, 2*nf, wq, -1, info)
     lwork = int(wq(1)); allocate (work(lwork))
-    call dggev('N', 'V', 2*nf, a, 2*nf, b, 2*nf, ar, ai, be, vl, 1, vr, 2*nf, work, lwork, info)
+    call dgeev('N', 'V', 2*nf, a, 2*nf, ar, ai, vl, 1, vr, 2*nf, work, lwork, info)
     call fpe_resume(halting)
     if (info /= 0) then
-      call fatal_error(error, 'modal analysis: damped eigenproblem failed (dggev)')
+      call fatal_error(error, 'modal analysis: damped eigenproblem failed (dgeev)')
       return
     end if
+    ! Pairing: a damped vector's displacement part is x = N Z eta and an undamped shape
+    ! phi_i = N Z e_i, so x^T M phi_i = eta^T Z^T M_r Z e_i = eta_i and x^T M x = |eta|^2
+    ! (M_r = N^T M N, Z^T M_r Z = I): the MAC of every pair is read off the eigenvectors, where
+    ! the products in q for every pair cost O(nf^4).
+    allocate (norm_v(2*nf))
+    norm_v = sum(vr(1:nf, :)**2, dim=1)
     do i = 1, nf
       omega = sqrt(w(i))
       best = 0; mac_best = -1.0_dp
       do k = 1, 2*nf
-        if (be(k) == 0.0_dp) cycle
         ! Displacement part of eigenvector k (complex pairs stored as re, im columns).
         if (ai(k) > 0.0_dp) then
-          xr = matmul(basis, vr(1:nf, k)); xi = matmul(basis, vr(1:nf, k + 1))
+          num_r = vr(i, k); num_i = vr(i, k + 1)
+          den_x = norm_v(k) + norm_v(k + 1)
         else if (ai(k) < 0.0_dp) then
           cycle
         else
-          xr = matmul(basis, vr(1:nf, k)); xi = 0.0_dp
+          num_r = vr(i, k); num_i = 0.0_dp
+          den_x = norm_v(k)
         end if
-        num_r = dot_product(xr, matmul(m_full, shapes(:, i)))
-        num_i = dot_product(xi, matmul(m_full, shapes(:, i)))
-        den_x = dot_product(xr, matmul(m_full, xr)) + dot_product(xi, matmul(m_full, xi))
         mac = (num_r**2 + num_i**2)/max(den_x, tiny(1.0_dp))
         if (mac > mac_best) then
           mac_best = mac; best = k
@@ -167,12 +175,12 @@ contains
       f_damped(i) = 0.0_dp
       zeta(i) = 0.0_dp                        ! a zero-stiffness (rigid-body) mode has no ratio
       if (best == 0) cycle
-      s_re = ar(best)/be(best); s_im = ai(best)/be(best)
+      s_re = ar(best); s_im = ai(best)
       if (s_im > 0.0_dp) then
         f_damped(i) = s_im/TWO_PI
         zeta(i) = -s_re/sqrt(s_re**2 + s_im**2)
       else if (omega > 0.0_dp) then
-        zeta(i) = dot_product(z(:, i), matmul(d_r, z(:, i)))/(2.0_dp*omega)
+        zeta(i) = d_eta(i, i)/(2.0_dp*omega)
       end if
     end do
   end subroutine modal_analysis

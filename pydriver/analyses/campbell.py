@@ -24,6 +24,7 @@ from pydriver.analyses.common import base_summary
 from pydriver.analyses.statics import unforced, unforced_note
 from pydriver.errors import RunError
 from pydriver.result import Result
+from pydriver.richardson import richardson, richardson_two
 from pydriver.schema import lookup
 
 #: Below this MAC between neighbouring speeds the tracking may have swapped modes.  0.9 is the
@@ -384,3 +385,197 @@ def campbell_analysis(model) -> Result:
     if found:
         extra["tables"]["campbell_crossings.csv"] = cross_table
     return Result(summary=summary, extra=extra)
+
+
+# -- converged diagram (&refinement levels > 1) -----------------------------------------------
+
+def _extrapolated(values: list, expected_order: float):
+    """Richardson over the levels: the last three (observed order), or two (expected order)."""
+    if len(values) == 2:
+        return richardson_two(*values, expected_order=expected_order)
+    return richardson(*values[-3:], expected_order=expected_order)
+
+
+def refine_frequencies(freqs: list, expected_order: float) -> dict:
+    """Richardson of every tracked frequency at every speed, from the diagrams at n, 2n, 4n ...
+
+    Parameters
+    ----------
+    freqs : list of ndarray
+        Each level's (n_speeds, n_modes) frequencies [Hz], coarse to fine, on the same speed grid
+        and matched by mode number (the modes are numbered by frequency at the first speed and
+        followed by MAC, at every level alike).
+    expected_order : float
+
+    Returns
+    -------
+    dict
+        ``extrapolated``, ``error``, ``order`` (n_speeds, n_modes; NaN where a level does not
+        oscillate: an overdamped or zero-stiffness mode has no frequency to extrapolate) and
+        ``doubtful`` (bool: Richardson's warning, not in the asymptotic range or oscillating).
+    """
+    f = np.stack([np.asarray(x, float) for x in freqs])
+    out = {k: np.full(f.shape[1:], np.nan) for k in ("extrapolated", "error", "order")}
+    out["doubtful"] = np.zeros(f.shape[1:], bool)
+    for idx in np.ndindex(*f.shape[1:]):
+        values = f[(slice(None), *idx)]
+        if not np.all(values > 0.0):
+            continue
+        e = _extrapolated([float(v) for v in values], expected_order)
+        out["extrapolated"][idx], out["error"][idx], out["order"][idx] = (e.extrapolated, e.error_estimate,
+                                                                          e.observed_order)
+        out["doubtful"][idx] = bool(e.warning) and len(values) > 2
+    return out
+
+
+def _by_pair(found: list) -> dict:
+    """{(mode, harmonic): [rpm, ...] ascending} of a crossing list."""
+    out: dict = {}
+    for c in sorted(found, key=lambda c: c["rpm"]):
+        out.setdefault((c["mode"], c["harmonic"]), []).append(c["rpm"])
+    return out
+
+
+def refine_crossings(diagrams: list, ns: list, harmonics: int, op, expected_order: float) -> tuple:
+    """Every crossing speed in the operating range with its Richardson value, order and error.
+
+    Each level's crossings are found over the whole diagram (not only in the operating range:
+    a crossing just outside it at n may be inside at 4n) and matched across levels by (mode,
+    harmonic), the j-th crossing of a pair with the j-th.  A crossing is reported when the
+    finest level's speed or the extrapolated one lies in the operating range.  A pair that
+    crosses a different number of times at different levels cannot be matched: it is reported
+    (with the levels' speeds in range, NaN where a level has none) and warned about, never
+    dropped.
+
+    The speeds are those of the linear interpolation between grid speeds (:func:`crossings`),
+    which is the same at every level: extrapolation removes the error of the discretisation in
+    n, not that of the speed grid (O(step^2) times the curvature of f(rpm) minus k rpm).
+
+    Parameters
+    ----------
+    diagrams : list of (rpm, freqs)
+        Each level's speed grid [rpm] and (n_speeds, n_modes) frequencies [Hz], coarse to fine.
+    ns : list of int
+        The levels' numbers of bodies.
+    harmonics : int
+    op : (float, float)
+        Operating range [rpm].
+    expected_order : float
+
+    Returns
+    -------
+    rows : list of dict
+        ``mode``, ``harmonic``, ``rpm`` (the finest level's, NaN if it has none),
+        ``frequency_hz``, ``rpm_n<n>`` per level, ``rpm_extrapolated``, ``rpm_error``,
+        ``rpm_order``, ``f_extrapolated_hz``, ``f_error_hz``, ``f_order``, ``matched`` and
+        ``warning`` (Richardson's, or why the crossing is not matched).
+    warnings : list of str
+    """
+    levels = [_by_pair(crossings(rpm, f, harmonics, (float(rpm[0]), float(rpm[-1])))) for rpm, f in diagrams]
+    inside = lambda r: op[0] <= r <= op[1]                                     # noqa: E731
+    rows, unmatched = [], []
+    for key in sorted(set().union(*levels)):
+        mode, k = key
+        lists = [lvl.get(key, []) for lvl in levels]
+        if len({len(x) for x in lists}) == 1:
+            for j in range(len(lists[0])):
+                values = [x[j] for x in lists]
+                e = _extrapolated(values, expected_order)
+                if not (inside(values[-1]) or inside(e.extrapolated)):
+                    continue
+                row = {"mode": mode, "harmonic": k, "rpm": values[-1], "frequency_hz": k * values[-1] / 60.0}
+                row.update({f"rpm_n{n}": v for n, v in zip(ns, values)})
+                row.update(rpm_extrapolated=e.extrapolated, rpm_error=e.error_estimate, rpm_order=e.observed_order,
+                           f_extrapolated_hz=k * e.extrapolated / 60.0, f_error_hz=k * e.error_estimate / 60.0,
+                           f_order=e.observed_order, matched=True, warning=e.warning or "")
+                rows.append(row)
+            continue
+        in_range = [[r for r in x if inside(r)] for x in lists]
+        if not any(in_range):
+            continue
+        values = [x[0] if x else float("nan") for x in in_range]
+        present = [n for n, x in zip(ns, lists) if x]
+        absent = [n for n, x in zip(ns, lists) if not x]
+        why = (f"mode {mode} x {k}/rev crosses {', '.join(str(len(x)) for x in lists)} times at n = "
+               f"{', '.join(str(n) for n in ns)}" + (f" (none at n = {', '.join(map(str, absent))})" if absent else "")
+               + ": not matched across levels, not extrapolated")
+        row = {"mode": mode, "harmonic": k, "rpm": values[-1], "frequency_hz": k * values[-1] / 60.0}
+        row.update({f"rpm_n{n}": v for n, v in zip(ns, values)})
+        row.update(rpm_extrapolated=float("nan"), rpm_error=float("nan"), rpm_order=float("nan"),
+                   f_extrapolated_hz=float("nan"), f_error_hz=float("nan"), f_order=float("nan"), matched=False,
+                   warning=why)
+        rows.append(row)
+        unmatched.append((why, present))
+    rows.sort(key=lambda r: (r["rpm_extrapolated"] if r["matched"] else np.nanmax([r[f"rpm_n{n}"] for n in ns])))
+    warnings = [f"refinement: crossing {why}; it is in the operating range at n = {', '.join(map(str, present))}"
+                for why, present in unmatched]
+    doubtful = [f"mode {r['mode']} x {r['harmonic']}/rev" for r in rows if r["matched"] and r["warning"]
+                and len(ns) > 2]
+    if doubtful:
+        warnings.append("refinement: crossing speeds not in the asymptotic range (observed order far from "
+                        f"{expected_order:g}, or oscillating; error bars widened): " + ", ".join(doubtful))
+    return rows, warnings
+
+
+def _json_number(x) -> float | None:
+    """A float for summary.json, None for NaN (the summary is strict JSON)."""
+    x = float(x)
+    return x if np.isfinite(x) else None
+
+
+def refine_diagram(results: list, ns: list, expected_order: float) -> tuple[dict, list]:
+    """The converged Campbell diagram from the diagrams at ns = (n, 2n, 4n ...): adds the
+    extrapolated frequencies to the finest result's campbell.csv and extra['campbell'], its
+    crossings' extrapolated speeds to campbell_crossings.csv and summary['crossings'].
+
+    Returns summary['refinement'] (quantities: every crossing speed in the operating range and
+    the lowest frequency there) and the warnings.
+    """
+    fine = results[-1]
+    s = fine.summary
+    rpm = np.asarray(s["rpm"], float)
+    for r in results[:-1]:
+        if not np.array_equal(np.asarray(r.summary["rpm"], float), rpm):
+            raise RunError(f"Campbell refinement: the levels' speed grids differ (n = {ns})")
+    op = tuple(s["operating_rpm"])
+    freqs = [np.asarray(r.extra["campbell"]["f"], float) for r in results]
+    conv = refine_frequencies(freqs, expected_order)
+    table = fine.extra["tables"]["campbell.csv"]
+    table["f_extrapolated_hz"] = conv["extrapolated"].reshape(-1)
+    table["f_error_hz"] = conv["error"].reshape(-1)
+    table["f_order"] = conv["order"].reshape(-1)
+    fine.extra["campbell"].update(f_extrapolated=conv["extrapolated"], f_error=conv["error"])
+    rows, warnings = refine_crossings([(rpm, f) for f in freqs], ns, int(s["harmonics"]), op, expected_order)
+    keys = ["mode", "harmonic", "rpm", "frequency_hz", *[f"rpm_n{n}" for n in ns], "rpm_extrapolated", "rpm_error",
+            "rpm_order", "f_extrapolated_hz", "f_error_hz", "f_order"]
+    if rows:
+        fine.extra["tables"]["campbell_crossings.csv"] = {k: np.array([r[k] for r in rows], float) for k in keys}
+    else:
+        fine.extra["tables"].pop("campbell_crossings.csv", None)
+    s["crossings"] = [{k: (_json_number(v) if isinstance(v, float) else v) for k, v in r.items()}
+                      for r in rows if np.isfinite(r["rpm"])]
+    quantities = {}
+    for r in rows:
+        if not r["matched"]:
+            continue
+        name = f"mode {r['mode']} x {r['harmonic']}/rev [rpm]"
+        quantities[name] = {"values": [r[f"rpm_n{n}"] for n in ns], "extrapolated": r["rpm_extrapolated"],
+                            "observed_order": r["rpm_order"], "order_observed": len(ns) > 2,
+                            "error_estimate": r["rpm_error"], "warning": r["warning"]}
+    lowest = [r.summary["lowest_frequency_hz"] for r in results]
+    if all(x > 0.0 for x in lowest):
+        e = _extrapolated(lowest, expected_order)
+        quantities["lowest f in range [Hz]"] = {
+            "values": lowest, "extrapolated": e.extrapolated, "observed_order": e.observed_order,
+            "order_observed": len(ns) > 2, "error_estimate": e.error_estimate, "warning": e.warning or ""}
+    if np.any(conv["doubtful"]):
+        modes = sorted({int(m) + 1 for m in np.nonzero(conv["doubtful"])[1]})
+        warnings.append(f"refinement: at {int(np.count_nonzero(conv['doubtful']))} of {conv['doubtful'].size} "
+                        "(speed, mode) points of the diagram the frequencies are not in the asymptotic range "
+                        f"(observed order far from {expected_order:g}, or oscillating; error bars widened): "
+                        f"modes {', '.join(map(str, modes))} (campbell.csv f_order)")
+    missing = ~np.isfinite(conv["extrapolated"]) & (freqs[-1] > 0.0)
+    if np.any(missing):
+        warnings.append(f"refinement: {int(np.count_nonzero(missing))} (speed, mode) points oscillate at n = {ns[-1]} "
+                        "but not at every coarser level: not extrapolated there (campbell.csv f_extrapolated_hz NaN)")
+    return {"n": ns, "expected_order": expected_order, "quantities": quantities}, warnings

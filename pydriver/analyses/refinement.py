@@ -10,7 +10,8 @@ Richardson extrapolation, the observed order and an error estimate
 
 How a deck is refined (:func:`refined_deck`): body j becomes k bodies of length l_j / k; the
 first keeps body j's start angles and rates, the other k - 1 continue it straight (relative
-angles 0), so the start polygon is the deck's own.  Per-body values (diameter, drag
+angles 0), so the start polygon is the deck's own (a ``&shape resample = .true.`` deck's shape
+is instead resampled from its own points at every n, :mod:`pydriver.shape_resample`).  Per-body values (diameter, drag
 coefficient) are repeated; a deck that sets per-joint constants, per-body masses or lengths,
 or a force pulse on one body cannot be refined this way and is refused (deck_rules).
 """
@@ -48,6 +49,8 @@ def refined_deck(deck, factor: int):
             if dotted in ("chain.body_length", "chain.body_mass"):
                 deck.fail(group, name, "per-body lengths or masses cannot be refined: give total_length and "
                                        "a mass per length")
+            if group == "shape" and deck["shape.resample"] and name in ("gamma_deg", "beta_deg"):
+                continue                                   # resampled from the deck's points at every n
             values = np.asarray(deck[dotted], float)
             if group == "shape":
                 fine = np.zeros(n * factor)
@@ -154,12 +157,17 @@ def refinement_table(refinement: dict) -> dict:
 
 def run_refined(model, run_dir, analyse):
     """Run ``analyse(model, run_dir)`` at n, 2n, 4n ...; the finest run's result with
-    summary['refinement'] added."""
+    summary['refinement'] added (a Campbell diagram: every tracked frequency and crossing speed,
+    :func:`pydriver.analyses.campbell.refine_diagram`)."""
     from pydriver.model import Model
     t0 = time.perf_counter()
     levels = int(model.deck["refinement.levels"])
     models = [model if k == 0 else Model(refined_deck(model.deck, 2 ** k)) for k in range(levels)]
-    summaries, walls = [], []
+    # A Campbell diagram is a grid of frequencies and a list of crossings, not a few scalars:
+    # its coarse results are kept whole (small); other runs keep only their summaries (a
+    # flight's time series need not stay in memory).
+    diagram = model.analysis == "campbell"
+    coarse, walls = [], []
     for k, m in enumerate(models):
         name = f"refinement level {k + 1} of {levels} (n = {m.n_bodies})"
         t_level = time.perf_counter()
@@ -173,9 +181,15 @@ def run_refined(model, run_dir, analyse):
             except DeckError as exc:
                 raise DeckError(exc.deck, exc.group, exc.key, f"{exc.reason} ({name})") from exc
         walls.append(time.perf_counter() - t_level)
-        summaries.append(result.summary)
+        if k < levels - 1:
+            coarse.append(result if diagram else result.summary)
     ns = [m.n_bodies for m in models]
-    refinement, warnings = extrapolate(summaries, ns, float(model.deck["refinement.expected_order"]))
+    expected = float(model.deck["refinement.expected_order"])
+    if diagram:
+        from pydriver.analyses.campbell import refine_diagram
+        refinement, warnings = refine_diagram([*coarse, result], ns, expected)
+    else:
+        refinement, warnings = extrapolate([*coarse, result.summary], ns, expected)
     result.summary["refinement"] = refinement
     # The job's time, all levels (the finest level's alone was printed as the job's).
     result.summary["wall_time_s"] = time.perf_counter() - t0

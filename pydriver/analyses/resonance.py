@@ -65,9 +65,10 @@ def mode_margins(modes: list, rpm_values: list, harmonics: int, required_percent
 
     Parameters
     ----------
-    modes : list of (int, callable or float, float)
-        (mode number, frequency [Hz] or a function of rpm giving it, error bar [Hz]); a
-        frequency <= 0 (overdamped or zero-stiffness mode) is skipped.
+    modes : list of (int, callable or float, callable or float or None)
+        (mode number, frequency [Hz] or a function of rpm giving it, error bar [Hz] or a
+        function of rpm giving it, None: no error bar); a frequency <= 0 (overdamped or
+        zero-stiffness mode) is skipped.
     rpm_values : list of float
         Operating speeds [rpm].
     harmonics : int
@@ -83,6 +84,7 @@ def mode_margins(modes: list, rpm_values: list, harmonics: int, required_percent
             f = float(freq(rpm) if callable(freq) else freq)
             if not f > 0.0 or f > top or not math.isfinite(f):
                 continue
+            err = err(rpm) if callable(err) else err
             row = {"mode": int(mode), "operating_rpm": float(rpm), "frequency_hz": f,
                    "error_hz": float(err) if err is not None else None}
             row.update(harmonic_margin(f, err or 0.0, rpm, harmonics))
@@ -167,15 +169,26 @@ def _modal_modes(summary: dict) -> list:
 
 def _campbell_rows(result, rpm_values, harmonics, required):
     """A Campbell run's margins: at one operating speed, or the least over an operating range
-    (sampled finely between the grid speeds; a crossing inside the range is a margin of 0)."""
+    (sampled finely between the grid speeds; a crossing inside the range is a margin of 0).
+    A refined diagram (&refinement) is judged on its extrapolated frequencies with their error
+    bars, linearly interpolated between grid speeds; where a point has no extrapolation (a mode
+    not oscillating at every level) on the finest level's frequency without one."""
     c = result.extra["campbell"]
     grid, freqs = np.asarray(c["rpm"], float), np.asarray(c["f"], float)
+    errors = None
+    if "f_extrapolated" in c:
+        ext = np.asarray(c["f_extrapolated"], float)
+        known = np.isfinite(ext)
+        freqs = np.where(known, ext, freqs)
+        errors = np.where(known, np.asarray(c["f_error"], float), 0.0)
     if len(rpm_values) == 1:
         speeds = np.asarray(rpm_values, float)
     else:
         lo, hi = min(rpm_values), max(rpm_values)
         speeds = np.union1d(np.linspace(lo, hi, 401), grid[(grid >= lo) & (grid <= hi)])
-    modes = [(i + 1, (lambda r, i=i: np.interp(r, grid, freqs[:, i])), None) for i in range(freqs.shape[1])]
+    modes = [(i + 1, (lambda r, i=i: np.interp(r, grid, freqs[:, i])),
+              None if errors is None else (lambda r, i=i: float(np.interp(r, grid, errors[:, i]))))
+             for i in range(freqs.shape[1])]
     rows = mode_margins(modes, list(speeds), harmonics, required)
     least = {}
     for r in rows:
