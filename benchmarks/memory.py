@@ -96,10 +96,12 @@ def million_samples(sets: dict, workdir: Path) -> dict:
         raise NoWorkDone(f"long run: {steps} steps, no timeseries.h5 or timeseries.csv")
     if h5file.is_file():
         import h5py
+        from pydriver.netcdf_layout import read_columns
         with h5py.File(h5file, "r") as h5:
-            columns = json.loads(h5.attrs["columns"])
-            rows = {len(h5[c]) for c in columns}
-            t = h5["t"][:]
+            data = read_columns(h5)
+            columns = list(data)
+            rows = {len(v) for v in data.values()}
+            t = data["t"]
     else:
         h5file = csvfile
         with open(csvfile) as fh:

@@ -99,10 +99,11 @@ def _streamed_columns(path, names: list[str], periodic: bool, max_frames: int):
     """Rows and the needed columns of a time series kept on disk only (HDF5), read at the
     frames' rows alone (a run too large for memory is never loaded whole)."""
     import h5py
+
+    from pydriver.netcdf_layout import column_rows, row_count
     with h5py.File(path, "r") as h5:
-        n_rows = h5["t"].shape[0]
-        rows = frame_rows(n_rows, periodic, max_frames)
-        return rows, {c: h5[c][rows] for c in names}
+        rows = frame_rows(row_count(h5), periodic, max_frames)
+        return rows, column_rows(h5, names, rows)
 
 
 def cable_frames(result, max_frames: int, timeseries_path=None) -> Frames | None:

@@ -10,11 +10,13 @@ built as one text in memory; large ones go to HDF5 (h5py), which every analysis 
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
 
-from pydriver.output_columns import bare_name, header, unit_of
+from pydriver.netcdf_layout import NetcdfTimeseries, is_netcdf_layout, read_columns
+from pydriver.output_columns import bare_name, header
 from pydriver.run_directory import RunDirectory
 
 #: Time series with more values than this go to HDF5 when the deck asks for 'auto'.
@@ -34,15 +36,9 @@ class TimeseriesWriter:
         self.path = path
         self.rows = 0
         if fmt == "hdf5":
-            import h5py
-            # No chunk cache: rows are appended once, in order, so caching chunks only grows
-            # memory (h5py's per-dataset cache, measured 500 -> 52 MiB for 1e6 x 140 values).
-            self._h5 = h5py.File(path, "w", rdcc_nbytes=0)
-            self._h5.attrs["columns"] = json.dumps(columns)
-            self._sets = {c: self._h5.create_dataset(c, shape=(0,), maxshape=(None,), dtype="f8",
-                                                     chunks=(16384,)) for c in columns}
-            for c, ds in self._sets.items():
-                ds.attrs["units"] = unit_of("timeseries.h5", c)
+            # netCDF4 layout (dimensions time, body, joint, component): xarray opens it.
+            n_bodies = sum(1 for c in columns if re.fullmatch(r"x\d+", c))
+            self._nc = NetcdfTimeseries(path, columns, n_bodies)
         else:
             self._fh = open(path, "w", encoding="utf-8", newline="\n")
             self._fh.write(",".join(header("timeseries.csv", columns)) + "\n")
@@ -50,10 +46,7 @@ class TimeseriesWriter:
     def write(self, chunk: dict):
         n = len(chunk[self.columns[0]])
         if self.fmt == "hdf5":
-            for c in self.columns:
-                ds = self._sets[c]
-                ds.resize((self.rows + n,))
-                ds[self.rows:] = chunk[c]
+            self._nc.write(chunk)
         else:
             data = np.column_stack([np.asarray(chunk[c], float) for c in self.columns])
             self._fh.write("".join(",".join(map(_fmt, row)) + "\n" for row in data))
@@ -61,7 +54,7 @@ class TimeseriesWriter:
 
     def close(self):
         if self.fmt == "hdf5":
-            self._h5.close()
+            self._nc.close()
         else:
             self._fh.close()
 
@@ -72,7 +65,9 @@ def read_timeseries(path: Path) -> dict:
     if path.suffix == ".h5":
         import h5py
         with h5py.File(path, "r") as h5:
-            return {c: h5[c][:] for c in json.loads(h5.attrs["columns"])}
+            if is_netcdf_layout(h5):
+                return read_columns(h5)
+            return {c: h5[c][:] for c in json.loads(h5.attrs["columns"])}     # one dataset per column
     return read_csv(path)
 
 

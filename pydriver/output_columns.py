@@ -195,6 +195,12 @@ def outputs_markdown() -> str:
              "(`FA_x`), as before units were added.  `{j}` is a joint or body number (from clamp A), `{k}` a "
              "mode, `{n}` a number of bodies, `{c}` one of x, y, z, `{a}` one of x, y, `{s}` a support, A or B. "
              "A unit `*` depends on the deck (the S-N curve's quantity) or on the row (refinement.csv's `unit`). "
+             "`timeseries.h5` (large runs, or `&solver output_format = 'hdf5'`) is netCDF4: "
+             "`xarray.open_dataset(path, engine='h5netcdf')` opens it with dimensions time, body, joint, "
+             "component and bending_axis; the columns below are grouped into variables `cm`, `F_A`, `M_A`, `F_B`, "
+             "`M_B`, `tip`, `gamma`, `beta`, `axial`, `shear`, `bending`, `torsion`, `curvature`, `strain`, "
+             "`moment`, `kappa` (the rest keep their names), each with `units` and `long_name` attributes "
+             "(`pydriver/netcdf_layout.py`).  "
              "A blank cell is a value that does not exist (a life without damage, a crossing missing at one "
              "refinement level); no file holds NaN or Inf.",
              "", "Besides the tables: `summary.json` (every scalar result, warnings, solver statistics), "

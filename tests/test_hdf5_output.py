@@ -32,3 +32,23 @@ def test_auto_switches_to_hdf5_above_the_csv_limit(tmp_path, monkeypatch):
     assert res.summary["timeseries_format"] == "hdf5"
     ts = output.read_timeseries(tmp_path / "run" / "timeseries.h5")
     assert np.array_equal(ts["t"], res.timeseries["t"])
+
+
+def test_xarray_opens_the_hdf5_time_series(tmp_path):
+    """netCDF4 layout (issue 22): xarray opens timeseries.h5 with dimensions time, body, joint,
+    component and units as attributes, and its variables hold exactly the CSV columns."""
+    import xarray as xr
+    base = pydriver.Model.from_deck(INPUTS / "six_link_dynamic.nml").with_changes({"solver.t_end": 0.05})
+    res = pydriver.run_deck(base.with_changes({"solver.output_format": "hdf5"}), out=tmp_path / "h5")
+    ts = res.timeseries
+    with xr.open_dataset(tmp_path / "h5" / "timeseries.h5", engine="h5netcdf") as ds:
+        assert {"time", "body", "joint", "component"} <= set(ds.dims)
+        assert ds["cm"].dims == ("time", "body", "component") and ds["cm"].attrs["units"] == "m"
+        assert ds["F_B"].attrs["units"] == "N" and ds["time"].attrs["units"] == "s"
+        assert list(ds["component"].values) == ["x", "y", "z"]
+        assert np.array_equal(ds["time"].values, ts["t"])
+        assert np.array_equal(ds["cm"].sel(body=3, component="z").values, ts["z3"])
+        assert np.array_equal(ds["F_B"].sel(component="z").values, ts["FB_z"])
+        assert np.array_equal(ds["bending"].sel(joint=2).values, ts["bending2_Nm"])
+        assert np.array_equal(ds["moment"].sel(joint=2, bending_axis="y").values, ts["moment_y2_Nm"])
+        assert np.array_equal(ds["E_kin_J"].values, ts["E_kin_J"])
