@@ -197,6 +197,25 @@ class CoreModel:
             _raise(self.deck, stat, key, msg)
         return s
 
+    def monodromy(self, settings: dict, t0: float, q0, v0, t) -> dict:
+        """One period from (q0, v0) at t0 with IDAS forward sensitivities (rotorcable_monodromy).
+
+        Returns the consistent start ``q0``, ``v0``, the states ``q``, ``v`` (nq, len(t)) at the
+        increasing output times ``t`` (the last one ends the period), the null-space basis
+        ``basis`` N (nq, nf) of G at the start, the monodromy matrix ``phi`` (2 nf, 2 nf) in the
+        independent coordinates x = (a, b), q = q0 + N a, v = v0 + N b + correction, and the
+        solver statistics.
+        """
+        real, ints = _settings_arrays(settings)
+        t = _reals(t)
+        nf = self.nq - self.nc
+        q, v, qs, vs, basis, phi, st, stat, key, msg = _api.rc_monodromy(
+            self.handle, real, ints, float(t0), _reals(q0), _reals(v0), t, nf)
+        _raise(self.deck, stat, key, msg)
+        stats = dict(zip(("steps", "residual_evals", "jacobian_evals", "error_test_failures",
+                          "convergence_failures", "sensitivity_residual_evals"), (int(x) for x in st)))
+        return {"q0": qs, "v0": vs, "q": q, "v": v, "basis": basis, "phi": phi, "stats": stats}
+
     def sample(self, t, q, v) -> dict:
         """Output quantities at the states q, v (nq, nt) and times t (nt)."""
         t = _reals(t)

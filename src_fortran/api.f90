@@ -16,12 +16,15 @@ module rotorcable_api
   use rotorcable_statics, only: static_settings, static_result, solve_static
   use rotorcable_modal, only: modal_analysis, reduced_matrices
   use rotorcable_dae_integrator, only: integrator_settings, settings_from_arrays, dae_session, session_start, session_advance
+  use rotorcable_monodromy, only: monodromy_run
+  use rotorcable_dae_integrator, only: solver_stats
   use rotorcable_sampling, only: sample_state, joint_loads, shape_of, support_motion
   implicit none
   private
   public :: rc_model_new, rc_model_free, rc_model_add_load, rc_model_set_base, rc_model_set_clamp, &
             rc_model_set_rotor, rc_model_finish, rc_model_sizes, rc_thesis_coordinates, rc_shape, rc_static, &
-            rc_modal, rc_modal_matrices, rc_dynamic_start, rc_dynamic_advance, rc_dynamic_free, rc_sample
+            rc_modal, rc_modal_matrices, rc_dynamic_start, rc_dynamic_advance, rc_dynamic_free, rc_sample, &
+            rc_monodromy
 
 contains
 
@@ -404,5 +407,45 @@ contains
     end if
     call report(error, stat, key, msg)
   end subroutine rc_sample
+
+  !> One period from (q0, v0) at t0 with the forward sensitivities of the independent
+  !> coordinates x = (a, b) (rotorcable_monodromy): states at the output times t (the last one
+  !> ends the period), the consistent start, the null-space basis N and the monodromy matrix.
+  subroutine rc_monodromy(handle, settings_real, settings_int, t0, nq, q0, v0, nt, t, nf, q, v, q_start, v_start, &
+                          basis, phi, stats, stat, key, msg)
+    integer(c_int), intent(in) :: handle          !< model handle
+    real(c_double), intent(in) :: settings_real(4)  !< rtol, atol, atol_multiplier, h_max
+    integer(c_int), intent(in) :: settings_int(5)   !< as rc_dynamic_start
+    real(c_double), intent(in) :: t0              !< start time [s]
+    integer(c_int), intent(in) :: nq, nt, nf      !< coordinates, output times, nq - nc
+    real(c_double), intent(in) :: q0(nq), v0(nq)  !< start state
+    real(c_double), intent(in) :: t(nt)           !< increasing output times > t0 [s]
+    real(c_double), intent(out) :: q(nq, nt), v(nq, nt)  !< states at t
+    real(c_double), intent(out) :: q_start(nq), v_start(nq)  !< consistent start
+    real(c_double), intent(out) :: basis(nq, nf)  !< N
+    real(c_double), intent(out) :: phi(2*nf, 2*nf)  !< monodromy matrix in x = (a, b)
+    integer(c_int), intent(out) :: stats(6)       !< steps, residual evals, Jacobians, error-test and
+                                                  !< convergence failures, sensitivity residual evals
+    integer(c_int), intent(out) :: stat           !< status
+    character(len=64), intent(out) :: key         !< input at fault
+    character(len=1024), intent(out) :: msg       !< why
+    type(model_type), pointer :: model
+    type(error_type) :: error
+    type(solver_stats) :: st
+    integer :: n_sens
+    q = 0.0_dp; v = 0.0_dp; basis = 0.0_dp; phi = 0.0_dp; stats = 0
+    q_start = q0; v_start = v0
+    model => model_of(handle, error)
+    if (error%code == 0) then
+      if (nf /= model%nq - model%nc .or. nq /= model%nq) call fatal_error(error, 'rc_monodromy: wrong sizes')
+    end if
+    if (error%code == 0) then
+      call monodromy_run(model, settings_from_arrays(settings_real, settings_int), t0, q_start, v_start, t, q, v, &
+                         basis, phi, st, n_sens, error)
+      stats = [st%steps, st%residual_evals, st%jacobian_evals, st%error_test_failures, st%convergence_failures, &
+               n_sens]
+    end if
+    call report(error, stat, key, msg)
+  end subroutine rc_monodromy
 
 end module rotorcable_api

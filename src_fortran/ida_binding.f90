@@ -1,6 +1,9 @@
 !> Hand-written iso_c_binding interfaces to the SUNDIALS 6.4 C API used by rotorcable
 !> (Debian's libsundials-dev ships no Fortran modules; see ../shared/TOOLCHAIN.md).
 !> sunindextype is int64_t, realtype double, booleantype int, "long int" is c_long.
+!> The library linked is IDAS 5.4.1 (meson.build), which holds the IDA 6.4.1 API under the same
+!> names and prototypes plus the forward-sensitivity functions (IDASens*) used by
+!> rotorcable_monodromy.
 module rotorcable_ida_binding
   use, intrinsic :: iso_c_binding, only: c_int, c_long, c_int64_t, c_double, c_ptr, c_funptr
   implicit none
@@ -13,7 +16,8 @@ module rotorcable_ida_binding
             IDAGetNumSteps, IDAGetNumResEvals, IDAGetNumJacEvals, IDAGetNumLinResEvals, &
             IDAGetNumErrTestFails, IDAGetNumNonlinSolvConvFails, IDASetErrHandlerFn, IDA_NORMAL, &
             IDASetJacFn, SUNDenseMatrix_Data, IDAGetNumLinSolvSetups, IDAGetCurrentCj, IDAGetCurrentY, &
-            IDAGetCurrentTime, IDASetPreconditioner
+            IDAGetCurrentTime, IDASetPreconditioner, IDASensInit, IDASensSVtolerances, IDASetSensErrCon, &
+            IDAGetSens, IDASensFree, IDAGetSensNumResEvals, IDAGetSensNumNonlinSolvIters, IDA_STAGGERED, IDASetInitStep
 
   public :: sun_linear_solver, sun_linear_solver_ops, SUNLINEARSOLVER_DIRECT, SUNLINEARSOLVER_MATRIX_EMBEDDED, &
             SUNLS_SUCCESS, SUNLS_LUFACT_FAIL
@@ -39,6 +43,8 @@ module rotorcable_ida_binding
   integer(c_int), parameter :: SUNLS_SUCCESS = 0
   integer(c_int), parameter :: SUNLS_LUFACT_FAIL = 808     !< positive: IDA retries (recoverable)
   integer(c_int), parameter :: IDA_NORMAL = 1   !< itask of IDASolve: return at tout
+  !> ism of IDASensInit: the sensitivity corrector after the state's (idas.h)
+  integer(c_int), parameter :: IDA_STAGGERED = 2
 
   interface
     integer(c_int) function SUNContext_Create(comm, ctx) bind(C, name='SUNContext_Create')
@@ -225,6 +231,50 @@ module rotorcable_ida_binding
       type(c_ptr), value :: mem
       type(c_funptr), value :: psetup, psolve
     end function IDASetPreconditioner
+    ! IDAS forward sensitivities (idas.h); N_Vector* arguments are c_loc of arrays of c_ptr.
+    integer(c_int) function IDASensInit(mem, ns, ism, res_s, ys0, yps0) bind(C, name='IDASensInit')
+      import :: c_int, c_ptr, c_funptr
+      type(c_ptr), value :: mem
+      integer(c_int), value :: ns, ism
+      type(c_funptr), value :: res_s
+      type(c_ptr), value :: ys0, yps0
+    end function IDASensInit
+    integer(c_int) function IDASensSVtolerances(mem, rtol, atol_s) bind(C, name='IDASensSVtolerances')
+      import :: c_int, c_ptr, c_double
+      type(c_ptr), value :: mem
+      real(c_double), value :: rtol
+      type(c_ptr), value :: atol_s
+    end function IDASensSVtolerances
+    integer(c_int) function IDASetSensErrCon(mem, errcon) bind(C, name='IDASetSensErrCon')
+      import :: c_int, c_ptr
+      type(c_ptr), value :: mem
+      integer(c_int), value :: errcon
+    end function IDASetSensErrCon
+    integer(c_int) function IDAGetSens(mem, tret, ys) bind(C, name='IDAGetSens')
+      import :: c_int, c_ptr, c_double
+      type(c_ptr), value :: mem
+      real(c_double) :: tret
+      type(c_ptr), value :: ys
+    end function IDAGetSens
+    subroutine IDASensFree(mem) bind(C, name='IDASensFree')
+      import :: c_ptr
+      type(c_ptr), value :: mem
+    end subroutine IDASensFree
+    integer(c_int) function IDAGetSensNumResEvals(mem, n) bind(C, name='IDAGetSensNumResEvals')
+      import :: c_int, c_ptr, c_long
+      type(c_ptr), value :: mem
+      integer(c_long) :: n
+    end function IDAGetSensNumResEvals
+    integer(c_int) function IDAGetSensNumNonlinSolvIters(mem, n) bind(C, name='IDAGetSensNumNonlinSolvIters')
+      import :: c_int, c_ptr, c_long
+      type(c_ptr), value :: mem
+      integer(c_long) :: n
+    end function IDAGetSensNumNonlinSolvIters
+    integer(c_int) function IDASetInitStep(mem, hin) bind(C, name='IDASetInitStep')
+      import :: c_int, c_ptr, c_double
+      type(c_ptr), value :: mem
+      real(c_double), value :: hin
+    end function IDASetInitStep
   end interface
 
 end module rotorcable_ida_binding
