@@ -93,6 +93,16 @@ COLUMNS = [
     Column(("campbell_crossings.csv",), "rpm_order", "-", "its observed order of convergence"),
     Column(("campbell_crossings.csv", "resonance.csv"), "harmonic", "-", "rotor harmonic k (k/rev)"),
     Column(("campbell_crossings.csv", "resonance.csv"), "frequency_hz", "Hz", "frequency of the mode"),
+    # -- Floquet stability ---------------------------------------------------------------------------
+    Column(("floquet.csv",), "mode", "-", "Floquet mode (a multiplier; complex pairs listed once)"),
+    Column(("floquet.csv",), "multiplier_re", "-", "real part of the Floquet multiplier rho"),
+    Column(("floquet.csv",), "multiplier_im", "-", "imaginary part of rho"),
+    Column(("floquet.csv",), "multiplier_abs", "-", "|rho|: above 1 the periodic motion is unstable"),
+    Column(("floquet.csv",), "exponent_re_per_s", "1/s", "real part of the characteristic exponent ln(rho)/T"),
+    Column(("floquet.csv",), "exponent_im_per_s", "rad/s", "imaginary part (principal branch)"),
+    Column(("floquet.csv",), "frequency_hz", "Hz", "frequency, the multiple of 1/rev resolved by the hover mode"),
+    Column(("floquet.csv",), "hover_frequency_hz", "Hz", "the hover mode that resolved it (blank: none)"),
+    Column(("floquet.csv",), "damping_ratio", "-", "-Re(eta)/|eta|"),
     # -- resonance margins -----------------------------------------------------------------------------
     Column(("resonance.csv",), "mode", "-", "mode number"),
     Column(("resonance.csv",), "operating_rpm", "rpm", "operating speed the margin is taken at"),

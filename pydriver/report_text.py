@@ -92,6 +92,18 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
         if len(q) > len(shown):
             lines.append(f"    ... {len(q) - len(shown)} more (clamp loads, DELs) in refinement.csv")
     lines += _resonance_lines(s.get("resonance"))
+    if "shooting" in s:
+        sh = s["shooting"]
+        lines.append(f"  periodic state by shooting: {sh['newton_iterations']} Newton iterations "
+                     f"({sh['revolutions_integrated']} revolutions integrated in all)")
+    if "floquet" in s:
+        fl = s["floquet"]
+        where = f" (n = {fl['n_bodies']})" if "n_bodies" in fl else ""
+        if fl.get("n_modes"):
+            ld = fl["least_damped"]
+            lines.append(f"  Floquet stability{where}: {'stable' if fl['stable'] else 'UNSTABLE'}, largest |multiplier| "
+                         f"{fl['max_multiplier_abs']:.4g}; least damped mode {_num(ld['frequency_hz'], 4)} Hz, "
+                         f"damping ratio {ld['damping_ratio']:.3g}")
     for w in s.get("warnings", []):
         lines.append(f"  warning: {w}")
     if files:

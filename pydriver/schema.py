@@ -313,6 +313,12 @@ def _keys() -> list[Key]:
     add(Key("solver", "checkpoint_interval", "real", unit="s", default=0.0, low=0.0, high=1.0e7, tiny=1.0e-9,
             doc="dynamic: IDA starts afresh every this many seconds (a multiple of dt_out; 0: never), so that "
                 "a continuation (run --restart DIR) reproduces the uninterrupted run exactly"))
+    add(Key("solver", "periodic_method", "str", default="marching", choices=("marching", "shooting"),
+            doc="flight: the periodic steady state by marching whole revolutions until two agree, or by "
+                "shooting (Newton on x(T) - x(0) with the monodromy from IDAS sensitivities)"))
+    add(Key("solver", "floquet", "bool", default=False,
+            doc="flight: Floquet stability of the periodic motion from its monodromy matrix (floquet.csv); "
+                "refined runs compute it at the deck's own n"))
     add(Key("solver", "periodic_tol", "real", unit="m", default=1.0e-6, low=1.0e-14, high=1.0,
             doc="flight: two successive revolutions differ by less than this (max CM distance)"))
     add(Key("solver", "max_revolutions", "int", default=60, low=2, high=10_000, doc="flight: revolution budget"))

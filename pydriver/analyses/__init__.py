@@ -42,6 +42,9 @@ def run_single(model, run_dir=None):
         from pydriver.analyses.hover_modes import add_hover_modes
         result = flight.flight_analysis(model, run_dir)
         add_hover_modes(model, result)
+        if "monodromy" in result.extra:
+            from pydriver.analyses.floquet import add_floquet
+            add_floquet(model, result, result.extra["monodromy"], result.extra["period_s"])
         return result
     if analysis == "campbell":
         return campbell.campbell_analysis(model)

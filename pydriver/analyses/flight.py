@@ -19,6 +19,7 @@ from pydriver.analyses.clamp_reach import reach_error
 from pydriver.analyses.common import REACTION_NAMES, base_summary, reactions
 from pydriver.analyses.dynamics import chunk_columns
 from pydriver.analyses.fatigue_loads import fatigue_of_run
+from pydriver.analyses.shooting import periodic_start
 from pydriver.analyses.singularity import ClosestApproach
 from pydriver.analyses.statics import equilibrium
 from pydriver.errors import DeckError, RunError
@@ -66,8 +67,13 @@ def flight_analysis(model, run_dir=None) -> Result:
     rot = model.description["rotor"]
     period = rotor_period(model)
     spr, tol = int(s["samples_per_rev"]), float(s["periodic_tol"])
-    q0, _, _ = equilibrium(model, t=0.0)
-    session = model.core.start(model.solver_settings(), 0.0, q0, np.zeros_like(q0))
+    shooting = None
+    if s["periodic_method"] == "shooting":
+        q0, v0, shooting = periodic_start(model, period, tol)
+    else:
+        q0, _, _ = equilibrium(model, t=0.0)
+        v0 = np.zeros_like(q0)
+    session = model.core.start(model.solver_settings(), 0.0, q0, v0)
     history, prev_cm = [], None
     cardan = ClosestApproach(model)
     q_last = v_last = None
@@ -127,7 +133,21 @@ def flight_analysis(model, run_dir=None) -> Result:
                                         f"blade azimuth {entry['azimuth_deg']:.1f} deg)")
         if warnings:
             summary.setdefault("warnings", []).extend(warnings)
+    summary["periodic_method"] = s["periodic_method"]
+    if shooting is not None:
+        summary["shooting"] = {"newton_iterations": shooting["iterations"],
+                               "differences_m": shooting["differences_m"], "steps": shooting["steps"],
+                               "revolutions_integrated": shooting["iterations"] + summary["revolutions"]}
     extra = {"q": q_last.T, "shape_joints": sample["joints"]}
+    if s["floquet"]:
+        # The monodromy at the periodic state: shooting's last iterate, or one revolution with
+        # sensitivities from the start of the last marched revolution (Floquet stability).
+        if shooting is not None:
+            extra["monodromy"] = shooting["phi"]
+        else:
+            mono = model.core.monodromy(model.solver_settings(), 0.0, q_last[:, 0], v_last[:, 0], [period])
+            extra["monodromy"] = mono["phi"]
+        extra["period_s"] = period
     if "fatigue" in model.deck.groups:
         summary["fatigue"], columns = fatigue_of_run(model, ts, periodic=True)
         extra["tables"] = {"fatigue.csv": columns}

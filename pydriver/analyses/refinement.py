@@ -168,7 +168,12 @@ def run_refined(model, run_dir, analyse):
     # flight's time series need not stay in memory).
     diagram = model.analysis == "campbell"
     coarse, walls = [], []
+    floquet = model.deck["solver.floquet"] if model.analysis == "flight" else False
+    floquet_base = None
     for k, m in enumerate(models):
+        if floquet and k > 0:
+            # Floquet at the deck's own n only: its sensitivities grow as n^2 per step.
+            m = Model(m.deck.with_values({"solver.floquet": False}))
         name = f"refinement level {k + 1} of {levels} (n = {m.n_bodies})"
         t_level = time.perf_counter()
         with stage(name):
@@ -181,6 +186,8 @@ def run_refined(model, run_dir, analyse):
             except DeckError as exc:
                 raise DeckError(exc.deck, exc.group, exc.key, f"{exc.reason} ({name})") from exc
         walls.append(time.perf_counter() - t_level)
+        if floquet and k == 0:
+            floquet_base = (result.summary.get("floquet"), result.extra.get("tables", {}).get("floquet.csv"))
         if k < levels - 1:
             coarse.append(result if diagram else result.summary)
     ns = [m.n_bodies for m in models]
@@ -191,6 +198,9 @@ def run_refined(model, run_dir, analyse):
     else:
         refinement, warnings = extrapolate([*coarse, result.summary], ns, expected)
     result.summary["refinement"] = refinement
+    if floquet_base is not None and floquet_base[0] is not None:
+        result.summary["floquet"] = dict(floquet_base[0], n_bodies=models[0].n_bodies)
+        result.extra.setdefault("tables", {})["floquet.csv"] = floquet_base[1]
     # The job's time, all levels (the finest level's alone was printed as the job's).
     result.summary["wall_time_s"] = time.perf_counter() - t0
     result.summary["wall_time_levels_s"] = walls
