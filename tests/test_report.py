@@ -34,8 +34,73 @@ def test_the_legibility_check_finds_what_it_should():
     plt.close(fig)
 
 
+def test_the_legibility_check_sees_covered_lines_look_alikes_scale_and_frames():
+    """Issue 22's plot faults, each in a small figure: a legend over a curve, two labelled
+    lines of near-identical colour, a 3-D panel not to scale, an axis spanning round-off, and
+    an axis label on the next panel's frame."""
+    import matplotlib.pyplot as plt
+    import numpy as np
+    fig, ax = plt.subplots()
+    ax.plot([0, 1], [1, 1], label="FA_y"); ax.plot([0, 1], [0, 0.2], label="FB_y")
+    ax.set_xlabel("t [s]"); ax.set_ylabel("F [N]"); ax.legend(loc="upper right")
+    assert any("covers the line 'FA_y'" in p for p in plots.legibility_problems(fig))
+    plt.close(fig)
+    fig, ax = plt.subplots()
+    cmap = plt.get_cmap("viridis")
+    ax.plot([0, 1], [0, 1], color=cmap(29 / 43), label="joint 30")
+    ax.plot([0, 1], [0.5, 1.5], color=cmap(30 / 43), label="joint 31")
+    ax.set_xlabel("t [s]"); ax.set_ylabel("M [Nm]")
+    assert any("'joint 30' and 'joint 31' look alike" in p for p in plots.legibility_problems(fig))
+    plt.close(fig)
+    fig = plt.figure()
+    ax = fig.add_subplot(projection="3d")
+    ax.plot([0, 0.25, 0.5], [0, 0.05, 0.1], [1e-18, -1e-18, 1e-18])
+    ax.set_xlabel("x [m]"); ax.set_ylabel("y [m]"); ax.set_zlabel("z [m]")
+    problems = plots.legibility_problems(fig)
+    assert any("not to scale" in p for p in problems) and any("round-off" in p for p in problems)
+    plt.close(fig)
+    fig, ax = plt.subplots(2, 1, figsize=(4, 2.2))
+    ax[0].set_xlabel("t [s]"); ax[0].set_ylabel("z [mm]"); ax[1].set_xlabel("f [Hz]"); ax[1].set_ylabel("a [mm]")
+    assert any("'t [s]' lies on the frame of another panel" in p for p in plots.legibility_problems(fig))
+    plt.close(fig)
+
+
+def test_shape_panels_are_to_scale_and_show_round_off_as_zero():
+    """A planar cable with 1e-18 m of round-off in z: drawn as z = 0, the 3-D box to scale."""
+    import matplotlib.pyplot as plt
+    import numpy as np
+    x = np.linspace(0, 0.6, 12)
+    table = {"x_m": x, "y_m": 0.1 * x**2, "z_m": 1e-18 * (-1.0) ** np.arange(12)}
+    fig = plt.figure(figsize=(15, 5))
+    plots._shape_axes(fig, {"cable": table}, clamped_b=False)
+    plots._declutter_3d(fig)
+    assert plots.legibility_problems(fig) == []
+    ax3 = fig.axes[0]
+    assert np.all(ax3.get_lines()[0].get_data_3d()[2] == 0.0)
+    assert np.all(fig.axes[1].get_lines()[0].get_ydata() == 0.0)        # the y-z side view too
+    plt.close(fig)
+
+
+def test_spectrum_range_follows_the_data():
+    """Three times the highest significant peak, at most the Nyquist limit (it was 0-200 Hz)."""
+    import numpy as np
+    from pydriver.signal import spectrum
+    t = np.arange(0, 1, 1e-3)
+    f, a = spectrum(t, np.sin(2 * np.pi * 26.3 * t) + 0.01 * np.sin(2 * np.pi * 150 * t))
+    assert 75 < plots.spectrum_range(f, a) < 82                          # the 1 % peak is not significant
+    f, a = spectrum(t, np.sin(2 * np.pi * 26.3 * t) + 0.5 * np.sin(2 * np.pi * 310 * t))
+    assert plots.spectrum_range(f, a) == pytest.approx(500.0)            # 3 x 310 Hz > Nyquist
+    f, a = spectrum(t, np.sin(2 * np.pi * 240 * t))
+    assert 700 > plots.spectrum_range(f, a) > 240
+
+
+def test_distinct_styles_do_not_repeat():
+    styles = [plots.distinct_style(k) for k in range(40)]
+    assert len(set(styles)) == 40
+
+
 @pytest.mark.parametrize("deck", ["uh60_part2", "six_link_dynamic", "uh60_part2_forward_flight_cable",
-                                  "uh60_part2_campbell_soft"])
+                                  "uh60_part2_campbell_soft", "uh60_part2_decay", "cantilever_check"])
 def test_every_plot_passes_the_legibility_check(deck, tmp_path, monkeypatch):
     """Every figure a run writes, as written (after the 3-D views are decluttered): no text
     overlaps other text, every axis that shows numbers has a unit."""
