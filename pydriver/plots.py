@@ -395,7 +395,7 @@ def plot_envelopes(result, out: Path):
         a.fill_between(arc, lo, hi, color="tab:blue", alpha=0.25, label="min ... max")
         a.plot(arc, mean, "o-", ms=2.5, color="tab:blue", label="mean")
         a.set_ylabel(label); a.grid(True)
-    ax[0].legend(fontsize=8)
+    ax[0].legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))     # beside: the band stays clear
     damage = np.array([d for d in t["damage_per_hour"]], float)
     ax[4].semilogy(arc[damage > 0], damage[damage > 0], "o-", ms=2.5, color="tab:red")
     ax[4].set_ylabel("damage per flight hour [1/h]"); ax[4].grid(True, which="both", alpha=0.5)
@@ -585,3 +585,39 @@ def plot_frequency_vs_cy(res: dict, path: Path, f_flap: float, c_cross: float):
     ax.set_xlabel("c_y [Nm/rad]"); ax.set_ylabel("f [Hz]"); ax.grid(True); ax.legend()
     fig.suptitle("UH-60 cable part 2: first frequency against c_y (thesis Figure 5.9)")
     _save_replace(fig, path)
+
+
+def caption(name: str, summary: dict) -> str:
+    """What the figure ``name`` (a file plot_result writes) shows, for report.html."""
+    import re
+    s = summary
+    mode = re.fullmatch(r"mode(\d+)_shape\.png", name)
+    if mode:
+        return (f"Mode {mode.group(1)}, within the resonance margin: the equilibrium through the centres of mass "
+                "and the mode's displacement (scaled to a tenth of the cable's extent; a mode has no amplitude "
+                "of its own), in a 3-D view to scale and the y-z and x-y side views [m].")
+    where = {"dynamic": "at the end of the run"}.get(s.get("analysis"), "at the static equilibrium")
+    decay = s.get("decay", {})
+    captions = {
+        "shape.png": f"The cable {where} through its bodies' end points: a 3-D view to scale and the y-z and x-y "
+                     "side views [m]; clamp A is the square, clamp B the triangle.",
+        "envelopes.png": "Loads along the cable from clamp A (arc length 0): at every joint the minimum, mean and "
+                         "maximum over the record of the bending moment, jacket strain, torsional moment and axial "
+                         "force, and the fatigue damage per flight hour (log scale; its peaks are the hotspots).",
+        "loads_vs_azimuth.png": "Over the last, periodic revolution against the blade azimuth: the bending moment "
+                                "at up to eight joints along the cable (the most loaded among them), and the "
+                                "magnitudes of the clamp forces and moments at A and B.",
+        "shapes_vs_azimuth.png": "The cable in the hub frame at eight blade azimuths, 45 deg apart, over the last "
+                                 "revolution: a 3-D view to scale and the y-z and x-y side views [m].",
+        "campbell.png": "Campbell diagram: the tracked natural frequencies against rotor speed (rotating frame), "
+                        "the k/rev lines, the lead-lag band, the operating range, and the crossings in it (x).",
+        "reactions.png": "Support reactions against time: the force (top) and moment (bottom) components that each "
+                         "support exerts on the cable.",
+        "decay.png": f"Decay test: the displacement of {decay.get('signal', 'the signal')} from rest after the force "
+                     "pulse (top; the shaded window is evaluated), and its amplitude spectrum (bottom, up to three "
+                     "times its highest significant peak) with the damped frequency from the zero crossings "
+                     "(dashed).",
+        "frequencies.png": "Natural frequencies of the modes about the equilibrium, undamped (o) and damped (x), "
+                           "on a log scale.",
+    }
+    return captions.get(name, name)

@@ -142,8 +142,72 @@ def test_report_html_is_self_contained(flight_report):
     assert "<h2>Fatigue hotspots</h2>" in html and "Richardson" in html
     # The flight run's figures, and the shape of the mode within the resonance margin (issue 21).
     assert html.count("data:image/png;base64,") == 4
-    assert all(name in html for name in ("envelopes.png", "loads_vs_azimuth.png", "shapes_vs_azimuth.png",
-                                         "mode1_shape.png"))
+    captions = re.findall(r"<figcaption>(.*?)</figcaption>", html)
+    assert len(captions) == 4 and not any(".png" in c for c in captions)      # what it shows, not a file name
+    assert any("Mode 1, within the resonance margin" in c for c in captions)
     assert "<h2>Resonance margins</h2>" in html and "WITHIN MARGIN" in html
     assert not re.search(r"""(src|href)=["']?(https?:|file:|/)""", html)    # nothing fetched from elsewhere
     assert "ei" in html and "1.906" in html                                 # the inputs
+
+
+def test_report_explains_itself(flight_report):
+    """Issue 22: a glossary of every abbreviation used, numbers that do not wrap, the job's
+    time, and the values the deck's limits would judge shown as not judged."""
+    import json
+    _, out = flight_report
+    page = (out / "report.html").read_text()
+    glossary = page[page.index("<h2 id='glossary'>"):]
+    for used in ("MB_z max |.|", "DEL FA_x", "0 deg around", "1/rev-equivalent"):
+        assert used in page
+    for term in ("max |.|", "DEL (damage-equivalent load)", "N deg around", "1/rev-equivalent", "k/rev (1/rev", "f1, f2"):
+        assert f"<dt>{term}" in glossary, term
+    # Every numeric cell is a no-wrap cell: "8.9937e-" / "04" was split over two lines.
+    results = page[:page.index("<h2>Inputs</h2>")]                  # the deck's values are lists, as typed
+    cells = re.findall(r"<td( class=\"\w+\")?>(-?\d+\.[\d.e+-]*)</td>", results)
+    assert cells and all(cls == ' class="n"' for cls, _ in cells)
+    assert "td.n { white-space: nowrap;" in page
+    s = json.loads((out / "summary.json").read_text())
+    assert f"computed in {s['wall_time_s']:.2f} s (the whole job; refinement levels n = 11: " in page
+    assert "<h2>Limits</h2>" in page and "none (&amp;limits jacket_strain)" in page
+
+
+def test_limits_are_flagged(tmp_path):
+    """&limits jacket_strain and fatigue_life_hours: the flight's 5 % strain and 17 h life are
+    flagged in the summary, the terminal and report.html."""
+    deck = tmp_path / "limits.nml"
+    text = (INPUTS / "uh60_part2_forward_flight_cable.nml").read_text()
+    text = re.sub(r"(?ims)^&refinement\b.*?^\s*/", "", text)           # one level: the check, not convergence
+    deck.write_text(text + "\n&limits\n  jacket_strain = 0.02\n  fatigue_life_hours = 1000\n/\n")
+    cmd = [sys.executable, "-m", "pydriver", "run", str(deck), "--out", str(tmp_path / "o"), "--report", "-q"]
+    done = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+    assert done.returncode == 0, done.stderr
+    assert "limit at most 0.0200 (2.00 %): NOT MET" in done.stdout
+    assert "limit at least 1000 h: NOT MET" in done.stdout
+    page = (tmp_path / "o" / "report.html").read_text()
+    assert page.count('<td class="flag">NOT MET</td>') == 2
+    import json
+    rows = json.loads((tmp_path / "o" / "summary.json").read_text())["limits"]
+    assert [r["exceeded"] for r in rows] == [True, True]
+
+
+@pytest.mark.parametrize("key,value,words", [
+    ("jacket_strain", "1e300", "[1e-06, 1]"), ("jacket_strain", "1e-320", "[1e-06, 1]"),
+    ("jacket_strain", "-0.02", "[1e-06, 1]"), ("jacket_strain", "0.01, 0.02", "one value"),
+    ("fatigue_life_hours", "1e300", "[0.001, 1e+09]"), ("fatigue_life_hours", "1e-320", "[0.001, 1e+09]"),
+    ("fatigue_life_hours", "-5", "[0.001, 1e+09]"),
+    ("fatigue_life_hours", "100, 200", "one value"), ("fatigue_life_hours", "'long'", "")])
+def test_limit_keys_are_checked(tmp_path, key, value, words):
+    """The new keys' fuzz cases: huge, tiny (a denormal), reversed sign, wrong count, wrong type."""
+    deck = tmp_path / "bad.nml"
+    deck.write_text((INPUTS / "uh60_part2_forward_flight_cable.nml").read_text()
+                    + f"\n&limits\n  {key} = {value}\n/\n")
+    with pytest.raises(pydriver.DeckError) as exc:
+        pydriver.run_deck(deck)
+    assert (exc.value.group, exc.value.key) == ("limits", key) and words in str(exc.value)
+
+
+def test_a_life_limit_needs_fatigue(tmp_path):
+    deck = tmp_path / "bad.nml"
+    deck.write_text((INPUTS / "six_link_static.nml").read_text() + "\n&limits\n  fatigue_life_hours = 100\n/\n")
+    with pytest.raises(pydriver.DeckError, match="needs &fatigue"):
+        pydriver.run_deck(deck)
