@@ -14,6 +14,10 @@ from pydriver.errors import DeckError, OutputError, RunError
 from pydriver.run import run_deck
 
 
+#: The signal that ended the command, once one has (see _exit_on_termination).
+_TERMINATED: list[int] = []
+
+
 def _exit_on_termination():
     """SIGTERM and SIGHUP end the command like Ctrl-C: as an exception, so that a run's
     temporary directory is removed on the way out (the default action ends the process at
@@ -21,6 +25,10 @@ def _exit_on_termination():
     import signal
 
     def terminate(signum, frame):
+        _TERMINATED.append(signum)
+        # An object half-built when the signal came (an HDF5 file being opened) complains in
+        # its __del__ ("Exception ignored in ..."): noise once the command is ending.
+        sys.unraisablehook = lambda unraisable: None
         raise SystemExit(128 + signum)
 
     for sig in (signal.SIGTERM, getattr(signal, "SIGHUP", None)):
@@ -99,9 +107,17 @@ def main(argv=None) -> int:
             if args.refine:
                 from pydriver.model import Model
                 target = Model.from_deck(deck).with_changes({"refinement.levels": 3})
-            with progress.run_progress(Path(deck).name):
-                res = run_deck(target, out=out, plots=args.plots, report=args.report, vtk=args.vtk,
-                              restart=args.restart)
+            try:
+                with progress.run_progress(Path(deck).name):
+                    res = run_deck(target, out=out, plots=args.plots, report=args.report, vtk=args.vtk,
+                                  restart=args.restart)
+            except BaseException:
+                # SIGTERM raised SystemExit wherever Python was; a library's clean-up on the way
+                # out (h5py closing a half-written file, say) may raise something else: the
+                # command still ends as terminated, quietly (its temporaries are gone already).
+                if _TERMINATED:
+                    raise SystemExit(128 + _TERMINATED[0]) from None
+                raise
         except (DeckError, RunError) as exc:
             print(f"error: {exc}", file=sys.stderr)
             status = 1

@@ -39,6 +39,7 @@ def check(deck: Deck) -> None:
     _blade(deck)
     _output_times(deck)
     _fatigue(deck)
+    _limits(deck)
     _refinement(deck)
     _memory_budget(deck)
 
@@ -237,6 +238,12 @@ def _fatigue(deck: Deck):
         if not deck.has(f"fatigue.{key}"):
             deck.fail("fatigue", key, "is required: the S-N curve has no default (it is the cable's, from its "
                                       "fatigue tests)")
+
+
+def _limits(deck: Deck):
+    if deck.has("limits.fatigue_life_hours") and "fatigue" not in deck.groups:
+        deck.fail("limits", "fatigue_life_hours", "needs &fatigue: without an S-N curve no life is computed to "
+                                                  "judge against it")
 
 
 def _refinement(deck: Deck):

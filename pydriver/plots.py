@@ -24,7 +24,10 @@ def _plt():
 
 def legibility_problems(fig) -> list[str]:
     """What makes a figure hard to read: text that overlaps other text (labels, ticks, titles,
-    legends, annotations; by more than 1 pixel), and axes without a unit on an axis label."""
+    legends, annotations; by more than 1 pixel) or another panel's frame, axes without a unit on
+    an axis label, a legend over a line's data, labelled lines in one panel that look alike
+    (colour within CIE76 delta E 12 and the same line style and marker), a 3-D panel not to
+    scale, and an axis whose whole span is round-off (below 1e-9 of its values)."""
     fig.canvas.draw()
     renderer = fig.canvas.get_renderer()
     from matplotlib.axis import Axis
@@ -36,7 +39,7 @@ def legibility_problems(fig) -> list[str]:
         for tick in axis.get_major_ticks() + axis.get_minor_ticks():
             tick_labels.update((id(tick.label1), id(tick.label2)))
         if axis.axes.get_visible():
-            drawn += [lab for tick in axis._update_ticks() for lab in (tick.label1, tick.label2)]
+            drawn += _drawn_tick_labels(axis)
     others = [t for t in fig.findobj(match=Text) if id(t) not in tick_labels]
     # Text artists only: a legend's TextArea wraps a Text that findobj also returns.
     texts = [t for t in others + drawn if t.get_visible() and t.get_text().strip() and t.figure is fig]
@@ -46,6 +49,7 @@ def legibility_problems(fig) -> list[str]:
         for j in range(i + 1, len(boxes)):
             if boxes[i][1].overlaps(boxes[j][1]):
                 problems.append(f"'{boxes[i][0].get_text()}' overlaps '{boxes[j][0].get_text()}'")
+    problems += _frame_problems(fig, boxes)
     for ax in fig.axes:
         if not ax.get_visible() or not ax.axison:
             continue
@@ -56,30 +60,156 @@ def legibility_problems(fig) -> list[str]:
             # numbers (sharex, tick labels hidden) needs none.
             if numbered and "[" not in label:
                 problems.append(f"axis without a unit in its label: '{label}'")
+    return problems + _legend_problems(fig, renderer) + _look_alike_problems(fig) + _scale_problems(fig)
+
+
+def _is_3d(ax) -> bool:
+    return hasattr(ax, "zaxis")
+
+
+def _drawn_tick_labels(axis) -> list:
+    """The tick labels an axis drew at the last draw (those inside its view interval).  A 3-D
+    axis places its labels while drawing; asking it to update its ticks again would move them
+    back to 2-D positions, so its labels are taken as the draw left them."""
+    if not _is_3d(axis.axes):
+        return [lab for tick in axis._update_ticks() for lab in (tick.label1, tick.label2)]
+    lo, hi = sorted(axis.get_view_interval())
+    eps = 1e-9 * max(abs(lo), abs(hi), hi - lo)
+    return [tick.label1 for tick in axis.get_major_ticks() if lo - eps <= tick.get_loc() <= hi + eps]
+
+
+def _frame_problems(fig, boxes) -> list[str]:
+    """Text of one panel (or of the figure) that lies on another 2-D panel's frame or inside it
+    (decay.png: the upper panel's "t [s]" on the lower panel's top edge)."""
+    from matplotlib.text import Text
+    owner = {}
+    for ax in fig.axes:
+        for t in ax.findobj(match=Text):
+            owner[id(t)] = ax
+    problems = []
+    for t, box in boxes:
+        o = owner.get(id(t))
+        if o is not None and _is_3d(o) and t not in (o.xaxis.label, o.yaxis.label, o.zaxis.label):
+            continue        # a 3-D panel places its tick labels while drawing; _declutter_3d sees them
+        for ax in fig.axes:
+            if ax is owner.get(id(t)) or _is_3d(ax) or not ax.get_visible() or not ax.axison:
+                continue
+            if box.overlaps(ax.bbox):
+                problems.append(f"'{t.get_text()}' lies on the frame of another panel")
+    return problems
+
+
+def _legend_problems(fig, renderer) -> list[str]:
+    """A legend whose box covers a drawn line (its points or the segments between them, in
+    display coordinates, where they are inside their panel)."""
+    from matplotlib.path import Path as MplPath
+    from matplotlib.transforms import Bbox
+    legends = [ax.get_legend() for ax in fig.axes if ax.get_legend() is not None] + list(fig.legends)
+    problems = []
+    for legend in legends:
+        if not legend.get_visible():
+            continue
+        box = legend.get_window_extent(renderer)
+        for ax in fig.axes:
+            if _is_3d(ax) or not ax.get_visible():
+                continue
+            inside = Bbox.intersection(box, ax.bbox)
+            if inside is None or inside.width < 2 or inside.height < 2:
+                continue
+            inside = inside.padded(-1.0)
+            for line in ax.get_lines():
+                xy = np.asarray(line.get_xydata(), float)
+                if not line.get_visible() or len(xy) == 0:
+                    continue
+                pts = line.get_transform().transform(xy)
+                pts = pts[np.all(np.isfinite(pts), axis=1)]
+                if len(pts) == 0:
+                    continue
+                hit = (inside.contains(*pts[0]) if len(pts) == 1
+                       else MplPath(pts).intersects_bbox(inside, filled=False))
+                if hit:
+                    problems.append(f"legend ({', '.join(t.get_text() for t in legend.get_texts()[:3])} ...) "
+                                    f"covers the line '{line.get_label()}'")
+    return problems
+
+
+def _lab(rgb) -> np.ndarray:
+    """CIE L*a*b* (D65) of an sRGB colour, for telling colours apart as the eye does."""
+    c = np.asarray(rgb[:3], float)
+    c = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    xyz = np.array([[0.4124, 0.3576, 0.1805], [0.2126, 0.7152, 0.0722], [0.0193, 0.1192, 0.9505]]) @ c
+    xyz = xyz / np.array([0.95047, 1.0, 1.08883])
+    f = np.where(xyz > (6 / 29) ** 3, np.cbrt(xyz), xyz / (3 * (6 / 29) ** 2) + 4 / 29)
+    return np.array([116 * f[1] - 16, 500 * (f[0] - f[1]), 200 * (f[1] - f[2])])
+
+
+#: CIE76 colour difference below which two lines look alike (about 2.3 is just noticeable; 12
+#: keeps neighbouring lines of a legend apart at a glance).
+LOOK_ALIKE_DELTA_E = 12.0
+
+
+def _look_alike_problems(fig) -> list[str]:
+    from matplotlib.colors import to_rgba
+    problems = []
+    for ax in fig.axes:
+        lines = [ln for ln in ax.get_lines() if not ln.get_label().startswith("_") and ln.get_visible()]
+        for i, a in enumerate(lines):
+            for b in lines[i + 1:]:
+                if a.get_linestyle() != b.get_linestyle() or a.get_marker() != b.get_marker():
+                    continue
+                d = float(np.linalg.norm(_lab(to_rgba(a.get_color())) - _lab(to_rgba(b.get_color()))))
+                if d < LOOK_ALIKE_DELTA_E:
+                    problems.append(f"lines '{a.get_label()}' and '{b.get_label()}' look alike "
+                                    f"(delta E {d:.1f}, same style)")
+    return problems
+
+
+def _scale_problems(fig) -> list[str]:
+    problems = []
+    for ax in fig.axes:
+        if not ax.get_visible() or not (ax.axison or _is_3d(ax)):     # a 3-D panel draws its own axes
+            continue
+        lims = [ax.get_xlim(), ax.get_ylim()] + ([ax.get_zlim()] if _is_3d(ax) else [])
+        # A 3-D panel's axes share one unit, so its largest span is a scale for every axis.
+        panel = max(abs(hi - lo) for lo, hi in lims) if _is_3d(ax) else 0.0
+        for name, (lo, hi) in zip("xyz", lims):
+            if abs(hi - lo) < 1e-9 * max(abs(lo), abs(hi), panel):
+                problems.append(f"{name} axis spans {abs(hi - lo):.1e} around {lo:.3g}: round-off drawn as data")
+        if _is_3d(ax):
+            spans = np.abs(np.diff(np.array(lims), axis=1)).ravel()
+            per_unit = np.asarray(ax.get_box_aspect(), float) / spans
+            if np.ptp(per_unit) > 0.02 * np.max(per_unit):
+                problems.append("3-D panel not to scale: box aspect "
+                                f"{np.round(ax.get_box_aspect(), 3).tolist()} against spans {spans.tolist()}")
     return problems
 
 
 def _declutter_3d(fig, rounds: int = 6):
     """Resolve the collisions a 3-D view makes at drawing time (where its projection puts tick
-    labels is known only then): a tick label meeting another axis's tick label at a corner is
-    hidden; an axis label meeting tick labels moves out."""
+    labels is known only then): a tick label meeting another tick label (at a corner, or on a
+    short axis of a to-scale box) is hidden; an axis label meeting tick labels or another axis
+    label moves out."""
     from mpl_toolkits.mplot3d import Axes3D
     for ax in [a for a in fig.axes if isinstance(a, Axes3D)]:
         axes = (ax.xaxis, ax.yaxis, ax.zaxis)
         for _ in range(rounds):
             fig.canvas.draw()
             r = fig.canvas.get_renderer()
-            ticks = [(axis, lab, lab.get_window_extent(r)) for axis in axes for tick in axis._update_ticks()
-                     for lab in (tick.label1,) if lab.get_visible() and lab.get_text()]
+            ticks = [(axis, lab, lab.get_window_extent(r)) for axis in axes for lab in _drawn_tick_labels(axis)
+                     if lab.get_visible() and lab.get_text()]
             moved = False
+            labels = []
             for axis in axes:
                 box = axis.label.get_window_extent(r)
-                if any(b.overlaps(box) for _, _, b in ticks):
+                if (any(b.overlaps(box) for _, _, b in ticks) or any(b.overlaps(box) for b in labels)) \
+                        and axis.labelpad < 18:         # further out it leaves the panel
                     axis.labelpad += 4
                     moved = True
-            for i, (ax_i, lab_i, b_i) in enumerate(ticks):
-                for ax_j, lab_j, b_j in ticks[i + 1:]:
-                    if ax_i is not ax_j and lab_i.get_visible() and b_i.overlaps(b_j):
+                labels.append(box)
+            for i, (_, lab_i, b_i) in enumerate(ticks):
+                for _, lab_j, b_j in ticks[i + 1:]:
+                    # Also along one axis: a short axis of a to-scale box has little room.
+                    if lab_i.get_visible() and b_i.overlaps(b_j):
                         lab_j.set_visible(False)
             if not moved:
                 break
@@ -120,29 +250,58 @@ def _polyline(t: dict):
     return np.column_stack([t["x_m"], t["y_m"], t["z_m"]])
 
 
+#: Values below this fraction of a panel's extent are round-off (1e-18 m on a 0.5 m cable) and
+#: drawn as zero; a panel axis spans at least MIN_SPAN of the largest extent, so what is left of
+#: round-off is never stretched into a zig-zag.
+ROUND_OFF = 1e-12
+MIN_SPAN = 0.1
+
+
+def _snap(points: list[np.ndarray]) -> list[np.ndarray]:
+    """The point sets with coordinates below ROUND_OFF of their common extent set to zero."""
+    allp = np.vstack(points)
+    scale = float(np.max(np.abs(allp))) if allp.size else 0.0
+    return [np.where(np.abs(p) < ROUND_OFF * scale, 0.0, p) for p in points]
+
+
+def _to_scale(ax, points: np.ndarray, margin: float = 0.05):
+    """Limits and box of a 3-D panel such that one metre is as long on every axis (the spans
+    are the data's, each at least MIN_SPAN of the largest, plus a margin)."""
+    lo, hi = np.min(points, axis=0), np.max(points, axis=0)
+    extent = float(np.max(hi - lo)) or float(np.max(np.abs(points))) or 1.0
+    span = np.maximum(hi - lo, MIN_SPAN * extent) * (1.0 + 2.0 * margin)
+    mid = 0.5 * (lo + hi)
+    ax.set_xlim(mid[0] - span[0] / 2, mid[0] + span[0] / 2)
+    ax.set_ylim(mid[1] - span[1] / 2, mid[1] + span[1] / 2)
+    ax.set_zlim(mid[2] - span[2] / 2, mid[2] + span[2] / 2)
+    ax.set_box_aspect(span / np.max(span), zoom=0.8)       # zoom: room for the axis labels
+
+
 def _shape_axes(fig, tables: dict, clamped_b: bool = True):
-    """3D view and two side views (y-z, x-y) of the cable through its bodies' end points, one
-    line per label; clamp A (square) and clamp B (triangle) marked."""
+    """3D view (to scale) and two side views (y-z, x-y) of the cable through its bodies' end
+    points, one line per label; clamp A (square) and clamp B (triangle) marked; round-off
+    drawn as zero."""
     grid = fig.add_gridspec(1, 3, width_ratios=[1.25, 1, 1], wspace=0.35, left=0.03, right=0.86, bottom=0.12,
                             top=0.88)
     ax = fig.add_subplot(grid[0], projection="3d")
-    for label, t in tables.items():
-        p = _polyline(t)
+    polylines = dict(zip(tables, _snap([_polyline(t) for t in tables.values()])))
+    for label, p in polylines.items():
         line, = ax.plot(p[:, 0], p[:, 1], p[:, 2], "o-", ms=2.5, label=label)
         ax.plot(*p[0], "s", color=line.get_color(), ms=7)
         if clamped_b:
             ax.plot(*p[-1], "^", color=line.get_color(), ms=7)
     ax.set_xlabel("x [m]", labelpad=8); ax.set_ylabel("y [m]", labelpad=12); ax.set_zlabel("z [m]", labelpad=10)
-    ax.set_box_aspect(None, zoom=0.8)                # room for the axis labels inside the panel
+    _to_scale(ax, np.vstack(list(polylines.values())))
     from matplotlib.ticker import MaxNLocator
-    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
-        # 3-D tick labels crowd otherwise; y's first label sits in x's last one's corner.
-        axis.set_major_locator(MaxNLocator(4, prune="lower" if axis is ax.yaxis else None))
+    for axis, aspect in zip((ax.xaxis, ax.yaxis, ax.zaxis), ax.get_box_aspect() / np.max(ax.get_box_aspect())):
+        # 3-D tick labels crowd otherwise (fewer on a short axis of a to-scale box); y's first
+        # label sits in x's last one's corner.
+        axis.set_major_locator(MaxNLocator(max(1, int(round(4 * aspect))),
+                                           prune="lower" if axis is ax.yaxis else None))
     ax.tick_params(labelsize=7)
     for k, (a, b) in enumerate(((1, 2), (0, 1))):
         ax2 = fig.add_subplot(grid[k + 1])
-        for label, t in tables.items():
-            p = _polyline(t)
+        for label, p in polylines.items():
             line, = ax2.plot(p[:, a], p[:, b], "o-", ms=2.5, label=label)
             ax2.plot(p[0, a], p[0, b], "s", color=line.get_color(), ms=7)
             if clamped_b:
@@ -153,6 +312,18 @@ def _shape_axes(fig, tables: dict, clamped_b: bool = True):
     if clamped_b:
         ax2.plot([], [], "k^", label="clamp B")
     ax2.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
+
+
+#: Colours that stay apart (matplotlib's tab10, Tableau's categorical palette) and the line
+#: styles taken in turn once they run out.
+DISTINCT_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown", "tab:pink",
+                   "tab:gray", "tab:olive", "tab:cyan")
+LINE_STYLES = ("-", "--", ":", "-.")
+
+
+def distinct_style(k: int) -> tuple[str, str]:
+    """(colour, line style) of the k-th of many lines: no two of the first 40 alike."""
+    return DISTINCT_COLORS[k % len(DISTINCT_COLORS)], LINE_STYLES[(k // len(DISTINCT_COLORS)) % len(LINE_STYLES)]
 
 
 def _with_tip(result) -> dict:
@@ -171,12 +342,14 @@ def plot_flight(result, out: Path):
     order = np.argsort(az)
     nb = s["n_bodies"]
     fig, ax = plt.subplots(3, 1, figsize=(8, 9), sharex=True, constrained_layout=True)
-    cmap = plt.get_cmap("viridis")
     # At most 8 joints, evenly along the cable (44 lines are a blur), the most loaded among them.
     shown = sorted(set(np.linspace(0, nb - 1, min(nb, 7)).round().astype(int))
                    | {int(np.argmax([np.max(ts[f"bending{j + 1}_Nm"]) for j in range(nb)]))})
-    for j in shown:
-        ax[0].plot(az[order], ts[f"bending{j + 1}_Nm"][order], color=cmap(j / max(nb - 1, 1)), label=f"joint {j + 1}")
+    for k, j in enumerate(shown):
+        # Distinct colours by rank, not a colormap by joint number: joints 30 and 31 were
+        # neighbours on viridis and looked alike (issue 22).
+        color, style = distinct_style(k)
+        ax[0].plot(az[order], ts[f"bending{j + 1}_Nm"][order], color=color, ls=style, label=f"joint {j + 1}")
     ax[0].set_ylabel("bending moment [Nm]")
     ax[0].legend(fontsize=7, ncol=4, loc="upper left", bbox_to_anchor=(0.0, -0.02), frameon=False)
     for side in "AB":
@@ -191,7 +364,8 @@ def plot_flight(result, out: Path):
     for a in ax:
         a.grid(True)
         a.set_xlim(0, 360)
-    ax[1].legend(fontsize=8); ax[2].legend(fontsize=8)
+    for a in ax[1:]:
+        a.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.suptitle(f"{s['case']}: last revolution ({s['revolutions']} to periodic)")
     yield _save(fig, out, "loads_vs_azimuth.png")
     joints = result.extra["shape_joints"]                       # (3, n + 1, samples)
@@ -221,7 +395,7 @@ def plot_envelopes(result, out: Path):
         a.fill_between(arc, lo, hi, color="tab:blue", alpha=0.25, label="min ... max")
         a.plot(arc, mean, "o-", ms=2.5, color="tab:blue", label="mean")
         a.set_ylabel(label); a.grid(True)
-    ax[0].legend(fontsize=8)
+    ax[0].legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))     # beside: the band stays clear
     damage = np.array([d for d in t["damage_per_hour"]], float)
     ax[4].semilogy(arc[damage > 0], damage[damage > 0], "o-", ms=2.5, color="tab:red")
     ax[4].set_ylabel("damage per flight hour [1/h]"); ax[4].grid(True, which="both", alpha=0.5)
@@ -269,6 +443,24 @@ def plot_campbell(result, out: Path):
     yield _save(fig, out, "campbell.png")
 
 
+def spectrum_range(f, amplitude, mark: float | None = None, factor: float = 3.0, significant: float = 0.05) -> float:
+    """Upper end of a spectrum plot: ``factor`` times the highest significant peak (a local
+    maximum above ``significant`` of the largest one, the zero-frequency bin aside), at least
+    past ``mark`` (a frequency drawn on it), and at most the Nyquist limit ``f[-1]``."""
+    f, a = np.asarray(f, float), np.asarray(amplitude, float)
+    nyquist = float(f[-1])
+    inner = a[1:-1]
+    peaks = np.flatnonzero((inner > a[:-2]) & (inner >= a[2:])) + 1
+    peaks = peaks[f[peaks] > 0]
+    if len(peaks) == 0:
+        return nyquist
+    top = float(np.max(a[peaks]))
+    highest = float(np.max(f[peaks[a[peaks] >= significant * top]]))
+    if mark is not None and np.isfinite(mark):
+        highest = max(highest, float(mark))
+    return min(nyquist, factor * highest)
+
+
 def plot_result(result, out: Path) -> list[str]:
     """Plots of one run, written into the directory ``out``; returns their file names."""
     return list(_plots(result, out))
@@ -293,14 +485,15 @@ def _plots(result, out: Path):
         return
     if result.timeseries is not None:
         ts = result.timeseries
-        fig, ax = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+        fig, ax = plt.subplots(2, 1, figsize=(8, 6), sharex=True, constrained_layout=True)
         for name in [n for n in ts if n[:2] in ("FA", "FB")]:
             ax[0].plot(ts["t"], ts[name], label=name)
         for name in [n for n in ts if n[:2] in ("MA", "MB")]:
             ax[1].plot(ts["t"], ts[name], label=name)
         ax[0].set_ylabel("force [N]"); ax[1].set_ylabel("moment [Nm]"); ax[1].set_xlabel("t [s]")
         for a in ax:
-            a.grid(True); a.legend(fontsize=7, ncol=3)
+            # Beside the panel: inside, the legend covered FA_y and FB_y (issue 22).
+            a.grid(True); a.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
         fig.suptitle(f"{s['case']}: support reactions (support on chain)")
         yield _save(fig, out, "reactions.png")
     if "f_damped_hz" in s.get("decay", {}):
@@ -308,16 +501,18 @@ def _plots(result, out: Path):
         d = s["decay"]
         t = result.timeseries["t"]
         y = result.timeseries[d["signal"]] - result.timeseries[d["signal"]][0]
-        fig, ax = plt.subplots(2, 1, figsize=(8, 6))
-        ax[0].plot(t, y * 1e3)
+        fig, ax = plt.subplots(2, 1, figsize=(8, 6), constrained_layout=True)
+        ax[0].plot(t, y * 1e3, label=d["signal"])
         ax[0].axvspan(*d["window_s"], color="0.9", label="evaluated")
-        ax[0].set_xlabel("t [s]"); ax[0].set_ylabel(f"{d['signal']} - rest [mm]"); ax[0].legend()
+        ax[0].set_xlabel("t [s]"); ax[0].set_ylabel(f"{d['signal']} - rest [mm]")
+        ax[0].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
         m = t >= d["window_s"][0]
         f, spec = spectrum(t[m], y[m])
-        ax[1].plot(f, spec * 1e3)
-        ax[1].set_xlim(0, 200); ax[1].set_xlabel("f [Hz]"); ax[1].set_ylabel("amplitude [mm]")
+        ax[1].plot(f, spec * 1e3, label="spectrum")
+        ax[1].set_xlim(0, spectrum_range(f, spec, d["f_damped_hz"]))
+        ax[1].set_xlabel("f [Hz]"); ax[1].set_ylabel("amplitude [mm]")
         ax[1].axvline(d["f_damped_hz"], color="r", ls="--", label=f"{d['f_damped_hz']:.2f} Hz")
-        ax[1].legend()
+        ax[1].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
         for a in ax:
             a.grid(True)
         fig.suptitle(f"{s['case']}: decay test (thesis Figure 5.8)")
@@ -390,3 +585,39 @@ def plot_frequency_vs_cy(res: dict, path: Path, f_flap: float, c_cross: float):
     ax.set_xlabel("c_y [Nm/rad]"); ax.set_ylabel("f [Hz]"); ax.grid(True); ax.legend()
     fig.suptitle("UH-60 cable part 2: first frequency against c_y (thesis Figure 5.9)")
     _save_replace(fig, path)
+
+
+def caption(name: str, summary: dict) -> str:
+    """What the figure ``name`` (a file plot_result writes) shows, for report.html."""
+    import re
+    s = summary
+    mode = re.fullmatch(r"mode(\d+)_shape\.png", name)
+    if mode:
+        return (f"Mode {mode.group(1)}, within the resonance margin: the equilibrium through the centres of mass "
+                "and the mode's displacement (scaled to a tenth of the cable's extent; a mode has no amplitude "
+                "of its own), in a 3-D view to scale and the y-z and x-y side views [m].")
+    where = {"dynamic": "at the end of the run"}.get(s.get("analysis"), "at the static equilibrium")
+    decay = s.get("decay", {})
+    captions = {
+        "shape.png": f"The cable {where} through its bodies' end points: a 3-D view to scale and the y-z and x-y "
+                     "side views [m]; clamp A is the square, clamp B the triangle.",
+        "envelopes.png": "Loads along the cable from clamp A (arc length 0): at every joint the minimum, mean and "
+                         "maximum over the record of the bending moment, jacket strain, torsional moment and axial "
+                         "force, and the fatigue damage per flight hour (log scale; its peaks are the hotspots).",
+        "loads_vs_azimuth.png": "Over the last, periodic revolution against the blade azimuth: the bending moment "
+                                "at up to eight joints along the cable (the most loaded among them), and the "
+                                "magnitudes of the clamp forces and moments at A and B.",
+        "shapes_vs_azimuth.png": "The cable in the hub frame at eight blade azimuths, 45 deg apart, over the last "
+                                 "revolution: a 3-D view to scale and the y-z and x-y side views [m].",
+        "campbell.png": "Campbell diagram: the tracked natural frequencies against rotor speed (rotating frame), "
+                        "the k/rev lines, the lead-lag band, the operating range, and the crossings in it (x).",
+        "reactions.png": "Support reactions against time: the force (top) and moment (bottom) components that each "
+                         "support exerts on the cable.",
+        "decay.png": f"Decay test: the displacement of {decay.get('signal', 'the signal')} from rest after the force "
+                     "pulse (top; the shaded window is evaluated), and its amplitude spectrum (bottom, up to three "
+                     "times its highest significant peak) with the damped frequency from the zero crossings "
+                     "(dashed).",
+        "frequencies.png": "Natural frequencies of the modes about the equilibrium, undamped (o) and damped (x), "
+                           "on a log scale.",
+    }
+    return captions.get(name, name)

@@ -16,26 +16,48 @@ from pydriver.richardson import TWO_GRID_SAFETY
 from pydriver.schema import lookup
 
 STYLE = """
-body { font-family: sans-serif; max-width: 1100px; margin: 2em auto; color: #222; line-height: 1.4; }
+body { font-family: sans-serif; max-width: 1180px; margin: 2em auto; padding: 0 1em; color: #222; line-height: 1.4; }
 h1 { font-size: 1.6em; border-bottom: 2px solid #446; }
 h2 { font-size: 1.25em; margin-top: 1.8em; color: #335; }
 table { border-collapse: collapse; margin: 0.6em 0; font-size: 0.9em; }
 th, td { border: 1px solid #bbb; padding: 0.25em 0.6em; text-align: right; }
 th { background: #eef; } td.l, th.l { text-align: left; }
+td.n { white-space: nowrap; font-variant-numeric: tabular-nums; }
+td.flag { background: #f8d7da; font-weight: bold; }
 img { max-width: 100%; border: 1px solid #ddd; margin: 0.5em 0; }
+figure { margin: 1.2em 0; } figcaption { font-size: 0.92em; color: #333; }
 pre { background: #f6f6f6; padding: 0.8em; white-space: pre-wrap; font-size: 0.85em; }
-.scroll { overflow-x: auto; }
+.scroll { overflow-x: auto; max-width: 100%; }
 .warn { background: #fff3cd; border-left: 4px solid #e0a800; padding: 0.4em 0.8em; }
+dl.glossary dt { font-weight: bold; margin-top: 0.5em; } dl.glossary dd { margin-left: 1.5em; }
 """
 
 
-def _table(header: list[str], rows: list[list], left: int = 1) -> str:
-    cls = lambda i: ' class="l"' if i < left else ""          # noqa: E731
-    out = ["<table><tr>" + "".join(f"<th{cls(i)}>{html.escape(str(h))}</th>" for i, h in enumerate(header))
+def _table(header: list[str], rows: list[list], left=1) -> str:
+    """An HTML table; ``left``: the number of leading text columns, or the set of indices of
+    the text columns.  Numbers never wrap (a wrapped "8.9937e-" / "04" misreads), and header
+    names may break after "_" and "." so that a wide table fits."""
+    text_cols = set(range(left)) if isinstance(left, int) else set(left)
+    cls = lambda i: ' class="l"' if i in text_cols else ""          # noqa: E731
+    out = ["<table><tr>" + "".join(f"<th{cls(i)}>{_breakable(str(h))}</th>" for i, h in enumerate(header))
            + "</tr>"]
     for r in rows:
-        out.append("<tr>" + "".join(f"<td{cls(i)}>{html.escape(_cell(v))}</td>" for i, v in enumerate(r)) + "</tr>")
+        out.append("<tr>" + "".join(f"<td{_cell_class(i, v, text_cols)}>{html.escape(_cell(v))}</td>"
+                                    for i, v in enumerate(r)) + "</tr>")
     return "<div class='scroll'>" + "".join(out) + "</table></div>"
+
+
+def _breakable(name: str) -> str:
+    """A header name, escaped, with break opportunities after '_' and '.'."""
+    return "".join(html.escape(c) + ("<wbr>" if c in "_." else "") for c in name)
+
+
+def _cell_class(i: int, v, text_cols: set) -> str:
+    if i in text_cols:
+        return ' class="l"'
+    if isinstance(v, str) and v.upper() in ("NOT MET", "WITHIN MARGIN"):
+        return ' class="flag"'
+    return ' class="n"'
 
 
 def _cell(v) -> str:
@@ -74,7 +96,8 @@ def html_report(result, model=None, timeseries_path=None) -> str:
              f"<h1>{html.escape(s['case'])}: {html.escape(s['analysis'])} analysis</h1>",
              f"<p>Deck <code>{html.escape(s['deck'])}</code>; {s['n_bodies']} bodies, {s['n_coords']} "
              f"coordinates, {s['n_constraints']} constraint rows; equations in the {s['frame']} frame; "
-             f"computed in {s['wall_time_s']:.2f} s by rotorcable.  SI units, angles in degrees.</p>"]
+             f"computed in {_job_time(s)} by rotorcable.  SI units, angles in degrees; the abbreviations are "
+             "explained in the <a href='#glossary'>glossary</a> at the end.</p>"]
     for w in s.get("warnings", []):
         parts.append(f"<p class='warn'>{html.escape(w)}</p>")
     parts.append("<h2>Summary</h2><pre>" + html.escape(text_summary(s)) + "</pre>")
@@ -98,7 +121,7 @@ def html_report(result, model=None, timeseries_path=None) -> str:
                    "Three levels observe the order.")
         parts.append(f"<h2>Converged values (n = {', '.join(map(str, r['n']))})</h2><p>{how}</p>"
                      + _table(["quantity", *[f"n = {n}" for n in r["n"]], "extrapolated", "error +-",
-                               "order", "note"], rows))
+                               "order", "note"], rows, left={0, len(r["n"]) + 4}))
     if result.table is not None:
         t = result.table
         cols = [c for c in ("body", "gamma_deg", "beta_deg", "x_m", "y_m", "z_m", "axial_N", "shear_N",
@@ -124,6 +147,8 @@ def html_report(result, model=None, timeseries_path=None) -> str:
                         if rows else "<p>No crossings.</p>"))
     if s.get("resonance"):
         parts.append(_resonance_section(s["resonance"]))
+    if s.get("limits"):
+        parts.append(_limits_section(s["limits"]))
     if "fatigue" in s:
         f = s["fatigue"]
         rows = [[h["rank"], h["quantity"], h["damage_per_hour"], h["life_hours"] if h["life_hours"] is not None
@@ -135,15 +160,54 @@ def html_report(result, model=None, timeseries_path=None) -> str:
     parts.append(animation_html(result, model, timeseries_path))
     images = _images(result)
     if images:
+        from pydriver.plots import caption
         parts.append("<h2>Figures</h2>")
-        for name, data in images:
-            parts.append(f"<figure><img alt='{html.escape(name)}' src='data:image/png;base64,{data}'>"
-                         f"<figcaption>{html.escape(name)}</figcaption></figure>")
+        for k, (name, data) in enumerate(images, 1):
+            parts.append(f"<figure><img alt='{html.escape(caption(name, s))}' src='data:image/png;base64,{data}'>"
+                         f"<figcaption><b>Figure {k}.</b> {html.escape(caption(name, s))}</figcaption></figure>")
     if model is not None:
         parts.append("<h2>Inputs</h2><p>Every value the deck sets (the rest are the defaults of "
                      "docs/deck_reference.md).</p>" + _inputs(model))
+    parts.append(glossary_section("\n".join(parts)))
     parts.append("</body></html>")
     return "\n".join(parts)
+
+
+def _job_time(s: dict) -> str:
+    """The whole job's computing time, with the refinement levels' share."""
+    text = f"{s['wall_time_s']:.2f} s"
+    levels = s.get("wall_time_levels_s")
+    if levels and "refinement" in s:
+        each = ", ".join(f"n = {n}: {w:.2f} s" for n, w in zip(s["refinement"]["n"], levels))
+        text += f" (the whole job; refinement levels {each})"
+    return text
+
+
+def _visible_text(page: str) -> str:
+    """A page's text without tags, scripts, styles and embedded data."""
+    import re
+    page = re.sub(r"(?is)<(script|style)\b.*?</\1>", " ", page)
+    page = re.sub(r"(?s)<[^>]*>", " ", page)
+    return html.unescape(page)
+
+
+def glossary_section(page: str) -> str:
+    """The glossary of every abbreviation and term the page uses (:mod:`pydriver.glossary`)."""
+    from pydriver.glossary import used_terms
+    terms = used_terms(_visible_text(page))
+    items = "".join(f"<dt>{html.escape(t.term)}</dt><dd>{html.escape(t.meaning)}</dd>" for t in terms)
+    return f"<h2 id='glossary'>Glossary</h2><dl class='glossary'>{items}</dl>"
+
+
+def _limits_section(rows: list) -> str:
+    """The values judged against the deck's &limits (and those the deck sets no limit for)."""
+    from pydriver.report_text import limit_value_text, limit_verdict
+    out = [[r["quantity"], limit_value_text(r["value"], r["unit"]), r["where"],
+            f"{r['sense']} {limit_value_text(r['limit'], r['unit'])}" if r["limit"] is not None
+            else f"none ({r['key']})", limit_verdict(r)] for r in rows]
+    return ("<h2>Limits</h2><p>The results the deck's limits (&amp;limits) judge: a value beyond its limit is "
+            "NOT MET; a value without a limit in the deck is not judged.</p>"
+            + _table(["quantity", "value", "where", "limit", "verdict"], out, left={0, 2, 3}))
 
 
 def _resonance_section(block: dict) -> str:

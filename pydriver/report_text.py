@@ -104,6 +104,7 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
             lines.append(f"  Floquet stability{where}: {'stable' if fl['stable'] else 'UNSTABLE'}, largest |multiplier| "
                          f"{fl['max_multiplier_abs']:.4g}; least damped mode {_num(ld['frequency_hz'], 4)} Hz, "
                          f"damping ratio {ld['damping_ratio']:.3g}")
+    lines += _limit_lines(s.get("limits"))
     for w in s.get("warnings", []):
         lines.append(f"  warning: {w}")
     if files:
@@ -127,6 +128,33 @@ def _collapse_series(names: list[str]) -> list[str]:
     for group in series.values():
         out.append(group[0] if len(group) == 1 else f"{group[0]} ... {group[-1]} ({len(group)} files)")
     return sorted(out)
+
+
+def limit_value_text(value: float, unit: str) -> str:
+    """A judged value with its unit (strain also in percent)."""
+    return f"{_num(value, 3)} ({_num(100 * value, 3)} %)" if unit == "-" else f"{_num(value, 3)} {unit}"
+
+
+def limit_verdict(row: dict) -> str:
+    """'NOT MET', 'ok' or 'not judged' (no limit in the deck) of a summary['limits'] row."""
+    if row["limit"] is None:
+        return "not judged"
+    return "NOT MET" if row["exceeded"] else "ok"
+
+
+def _limit_lines(rows: list | None) -> list[str]:
+    """The values judged against the deck's &limits, one line each."""
+    if not rows:
+        return []
+    lines = ["  limits (&limits):"]
+    for r in rows:
+        if r["limit"] is None:
+            against = f"not judged: no {r['key']} in the deck"
+        else:
+            against = (f"limit {r['sense']} {limit_value_text(r['limit'], r['unit'])}: "
+                       + limit_verdict(r))
+        lines.append(f"    {r['quantity']} {limit_value_text(r['value'], r['unit'])} ({r['where']}); {against}")
+    return lines
 
 
 def _resonance_lines(block: dict | None) -> list[str]:

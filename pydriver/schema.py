@@ -269,6 +269,16 @@ def _keys() -> list[Key]:
                  "cost rainflow passes in proportion"))
     add(Key("fatigue", "hotspots", "int", default=5, low=1, high=2000,
             doc="joints listed in the hotspot table (at most every joint: 2000, the largest n_bodies)"))
+    # &limits ------------------------------------------------------------------------------
+    add(Key("limits", "jacket_strain", "real", unit="-", low=1.0e-6, high=1.0,
+            doc="largest allowed jacket strain (0.01 = 1 %): a run whose largest |strain| exceeds it is flagged "
+                "in the summary and report.html; default: none (the value is shown as not judged)",
+            note="a strain limit below 1e-6 is below any strain gauge's resolution, and above 1 (100 %) no "
+                 "cable material holds together"))
+    add(Key("limits", "fatigue_life_hours", "real", unit="h", low=1.0e-3, high=1.0e9,
+            doc="required fatigue life in flight hours: a hotspot with a shorter life (&fatigue) is flagged in "
+                "the summary and report.html; default: none (the life is shown as not judged)",
+            note="1e-3 h is 3.6 s, shorter than one recorded run; 1e9 h is 100 000 years"))
     # &refinement ---------------------------------------------------------------------------
     add(Key("refinement", "levels", "int", default=1, low=1, high=4,
             doc="run n, 2n, 4n ... (levels runs, physical cable parameters) and extrapolate; 1 = off"))
@@ -351,6 +361,7 @@ GROUP_DOCS = {
     "resonance": "resonance margins: the separation of every mode from the rotor harmonics at the operating speed",
     "drag": "aerodynamic drag by the cross-flow principle",
     "fatigue": "fatigue per joint: S-N (Basquin) curve, rainflow around the jacket, hotspots",
+    "limits": "limits the results are judged against (flagged in the summary and report.html)",
     "refinement": "converged numbers: the same cable at n, 2n, 4n bodies and Richardson extrapolation",
     "output": "how the result files are written",
     "solver": "time integration, statics and output settings",

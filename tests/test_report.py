@@ -34,8 +34,73 @@ def test_the_legibility_check_finds_what_it_should():
     plt.close(fig)
 
 
+def test_the_legibility_check_sees_covered_lines_look_alikes_scale_and_frames():
+    """Issue 22's plot faults, each in a small figure: a legend over a curve, two labelled
+    lines of near-identical colour, a 3-D panel not to scale, an axis spanning round-off, and
+    an axis label on the next panel's frame."""
+    import matplotlib.pyplot as plt
+    import numpy as np
+    fig, ax = plt.subplots()
+    ax.plot([0, 1], [1, 1], label="FA_y"); ax.plot([0, 1], [0, 0.2], label="FB_y")
+    ax.set_xlabel("t [s]"); ax.set_ylabel("F [N]"); ax.legend(loc="upper right")
+    assert any("covers the line 'FA_y'" in p for p in plots.legibility_problems(fig))
+    plt.close(fig)
+    fig, ax = plt.subplots()
+    cmap = plt.get_cmap("viridis")
+    ax.plot([0, 1], [0, 1], color=cmap(29 / 43), label="joint 30")
+    ax.plot([0, 1], [0.5, 1.5], color=cmap(30 / 43), label="joint 31")
+    ax.set_xlabel("t [s]"); ax.set_ylabel("M [Nm]")
+    assert any("'joint 30' and 'joint 31' look alike" in p for p in plots.legibility_problems(fig))
+    plt.close(fig)
+    fig = plt.figure()
+    ax = fig.add_subplot(projection="3d")
+    ax.plot([0, 0.25, 0.5], [0, 0.05, 0.1], [1e-18, -1e-18, 1e-18])
+    ax.set_xlabel("x [m]"); ax.set_ylabel("y [m]"); ax.set_zlabel("z [m]")
+    problems = plots.legibility_problems(fig)
+    assert any("not to scale" in p for p in problems) and any("round-off" in p for p in problems)
+    plt.close(fig)
+    fig, ax = plt.subplots(2, 1, figsize=(4, 2.2))
+    ax[0].set_xlabel("t [s]"); ax[0].set_ylabel("z [mm]"); ax[1].set_xlabel("f [Hz]"); ax[1].set_ylabel("a [mm]")
+    assert any("'t [s]' lies on the frame of another panel" in p for p in plots.legibility_problems(fig))
+    plt.close(fig)
+
+
+def test_shape_panels_are_to_scale_and_show_round_off_as_zero():
+    """A planar cable with 1e-18 m of round-off in z: drawn as z = 0, the 3-D box to scale."""
+    import matplotlib.pyplot as plt
+    import numpy as np
+    x = np.linspace(0, 0.6, 12)
+    table = {"x_m": x, "y_m": 0.1 * x**2, "z_m": 1e-18 * (-1.0) ** np.arange(12)}
+    fig = plt.figure(figsize=(15, 5))
+    plots._shape_axes(fig, {"cable": table}, clamped_b=False)
+    plots._declutter_3d(fig)
+    assert plots.legibility_problems(fig) == []
+    ax3 = fig.axes[0]
+    assert np.all(ax3.get_lines()[0].get_data_3d()[2] == 0.0)
+    assert np.all(fig.axes[1].get_lines()[0].get_ydata() == 0.0)        # the y-z side view too
+    plt.close(fig)
+
+
+def test_spectrum_range_follows_the_data():
+    """Three times the highest significant peak, at most the Nyquist limit (it was 0-200 Hz)."""
+    import numpy as np
+    from pydriver.signal import spectrum
+    t = np.arange(0, 1, 1e-3)
+    f, a = spectrum(t, np.sin(2 * np.pi * 26.3 * t) + 0.01 * np.sin(2 * np.pi * 150 * t))
+    assert 75 < plots.spectrum_range(f, a) < 82                          # the 1 % peak is not significant
+    f, a = spectrum(t, np.sin(2 * np.pi * 26.3 * t) + 0.5 * np.sin(2 * np.pi * 310 * t))
+    assert plots.spectrum_range(f, a) == pytest.approx(500.0)            # 3 x 310 Hz > Nyquist
+    f, a = spectrum(t, np.sin(2 * np.pi * 240 * t))
+    assert 700 > plots.spectrum_range(f, a) > 240
+
+
+def test_distinct_styles_do_not_repeat():
+    styles = [plots.distinct_style(k) for k in range(40)]
+    assert len(set(styles)) == 40
+
+
 @pytest.mark.parametrize("deck", ["uh60_part2", "six_link_dynamic", "uh60_part2_forward_flight_cable",
-                                  "uh60_part2_campbell_soft"])
+                                  "uh60_part2_campbell_soft", "uh60_part2_decay", "cantilever_check"])
 def test_every_plot_passes_the_legibility_check(deck, tmp_path, monkeypatch):
     """Every figure a run writes, as written (after the 3-D views are decluttered): no text
     overlaps other text, every axis that shows numbers has a unit."""
@@ -77,8 +142,72 @@ def test_report_html_is_self_contained(flight_report):
     assert "<h2>Fatigue hotspots</h2>" in html and "Richardson" in html
     # The flight run's figures, and the shape of the mode within the resonance margin (issue 21).
     assert html.count("data:image/png;base64,") == 4
-    assert all(name in html for name in ("envelopes.png", "loads_vs_azimuth.png", "shapes_vs_azimuth.png",
-                                         "mode1_shape.png"))
+    captions = re.findall(r"<figcaption>(.*?)</figcaption>", html)
+    assert len(captions) == 4 and not any(".png" in c for c in captions)      # what it shows, not a file name
+    assert any("Mode 1, within the resonance margin" in c for c in captions)
     assert "<h2>Resonance margins</h2>" in html and "WITHIN MARGIN" in html
     assert not re.search(r"""(src|href)=["']?(https?:|file:|/)""", html)    # nothing fetched from elsewhere
     assert "ei" in html and "1.906" in html                                 # the inputs
+
+
+def test_report_explains_itself(flight_report):
+    """Issue 22: a glossary of every abbreviation used, numbers that do not wrap, the job's
+    time, and the values the deck's limits would judge shown as not judged."""
+    import json
+    _, out = flight_report
+    page = (out / "report.html").read_text()
+    glossary = page[page.index("<h2 id='glossary'>"):]
+    for used in ("MB_z max |.|", "DEL FA_x", "0 deg around", "1/rev-equivalent"):
+        assert used in page
+    for term in ("max |.|", "DEL (damage-equivalent load)", "N deg around", "1/rev-equivalent", "k/rev (1/rev", "f1, f2"):
+        assert f"<dt>{term}" in glossary, term
+    # Every numeric cell is a no-wrap cell: "8.9937e-" / "04" was split over two lines.
+    results = page[:page.index("<h2>Inputs</h2>")]                  # the deck's values are lists, as typed
+    cells = re.findall(r"<td( class=\"\w+\")?>(-?\d+\.[\d.e+-]*)</td>", results)
+    assert cells and all(cls == ' class="n"' for cls, _ in cells)
+    assert "td.n { white-space: nowrap;" in page
+    s = json.loads((out / "summary.json").read_text())
+    assert f"computed in {s['wall_time_s']:.2f} s (the whole job; refinement levels n = 11: " in page
+    assert "<h2>Limits</h2>" in page and "none (&amp;limits jacket_strain)" in page
+
+
+def test_limits_are_flagged(tmp_path):
+    """&limits jacket_strain and fatigue_life_hours: the flight's 5 % strain and 17 h life are
+    flagged in the summary, the terminal and report.html."""
+    deck = tmp_path / "limits.nml"
+    text = (INPUTS / "uh60_part2_forward_flight_cable.nml").read_text()
+    text = re.sub(r"(?ims)^&refinement\b.*?^\s*/", "", text)           # one level: the check, not convergence
+    deck.write_text(text + "\n&limits\n  jacket_strain = 0.02\n  fatigue_life_hours = 1000\n/\n")
+    cmd = [sys.executable, "-m", "pydriver", "run", str(deck), "--out", str(tmp_path / "o"), "--report", "-q"]
+    done = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+    assert done.returncode == 0, done.stderr
+    assert "limit at most 0.0200 (2.00 %): NOT MET" in done.stdout
+    assert "limit at least 1000 h: NOT MET" in done.stdout
+    page = (tmp_path / "o" / "report.html").read_text()
+    assert page.count('<td class="flag">NOT MET</td>') == 2
+    import json
+    rows = json.loads((tmp_path / "o" / "summary.json").read_text())["limits"]
+    assert [r["exceeded"] for r in rows] == [True, True]
+
+
+@pytest.mark.parametrize("key,value,words", [
+    ("jacket_strain", "1e300", "[1e-06, 1]"), ("jacket_strain", "1e-320", "[1e-06, 1]"),
+    ("jacket_strain", "-0.02", "[1e-06, 1]"), ("jacket_strain", "0.01, 0.02", "one value"),
+    ("fatigue_life_hours", "1e300", "[0.001, 1e+09]"), ("fatigue_life_hours", "1e-320", "[0.001, 1e+09]"),
+    ("fatigue_life_hours", "-5", "[0.001, 1e+09]"),
+    ("fatigue_life_hours", "100, 200", "one value"), ("fatigue_life_hours", "'long'", "")])
+def test_limit_keys_are_checked(tmp_path, key, value, words):
+    """The new keys' fuzz cases: huge, tiny (a denormal), reversed sign, wrong count, wrong type."""
+    deck = tmp_path / "bad.nml"
+    deck.write_text((INPUTS / "uh60_part2_forward_flight_cable.nml").read_text()
+                    + f"\n&limits\n  {key} = {value}\n/\n")
+    with pytest.raises(pydriver.DeckError) as exc:
+        pydriver.run_deck(deck)
+    assert (exc.value.group, exc.value.key) == ("limits", key) and words in str(exc.value)
+
+
+def test_a_life_limit_needs_fatigue(tmp_path):
+    deck = tmp_path / "bad.nml"
+    deck.write_text((INPUTS / "six_link_static.nml").read_text() + "\n&limits\n  fatigue_life_hours = 100\n/\n")
+    with pytest.raises(pydriver.DeckError, match="needs &fatigue"):
+        pydriver.run_deck(deck)

@@ -25,6 +25,8 @@ def run(model, run_dir=None, restart=None):
             f"&fatigue is not evaluated: analysis '{model.analysis}' has no load history (flight or dynamic has)")
     from pydriver.analyses.resonance import attach_margins
     attach_margins(model, result)
+    from pydriver.analyses.limits import attach_limits
+    attach_limits(model, result)
     return result
 
 

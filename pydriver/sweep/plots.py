@@ -71,7 +71,7 @@ def plot_sweep(out, table: dict, params: list, scales: dict) -> list[Path]:
             y = table.get(name)
             if y is None or not np.any(np.isfinite(y[ok])):
                 continue
-            fig, ax = plt.subplots(figsize=(6.5, 4))
+            fig, ax = plt.subplots(figsize=(7.5, 4), constrained_layout=True)
             for g in groups:
                 sel = ok & np.array([lab == g for lab in labels], dtype=bool)
                 order = np.argsort(x[sel])
@@ -83,7 +83,7 @@ def plot_sweep(out, table: dict, params: list, scales: dict) -> list[Path]:
             ax.set_ylabel(axis_label(name))
             ax.grid(True)
             if others and len(groups) <= 8:
-                ax.legend(fontsize=7)
+                ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))   # beside: covers no point
             fig.suptitle(f"{name} against {p}", fontsize=10)
             png = io.BytesIO()
             fig.savefig(png, format="png", dpi=110)

@@ -5,9 +5,10 @@ from __future__ import annotations
 
 import base64
 import html
+import re
 from pathlib import Path
 
-from pydriver.report_html import STYLE, _table
+from pydriver.report_html import STYLE, _table, glossary_section
 
 #: Result columns shown (when present) after the id and the swept keys; the rest stay in sweep.csv.
 SHOWN = ("f1_hz", "f2_hz", "f1_damped_hz", "zeta1", "FA_x", "FA_y", "FA_z", "FB_x", "FB_y", "FB_z",
@@ -34,9 +35,23 @@ def sweep_report_html(out: Path, manifest: dict, columns: list[str], rows: list[
     images = sorted((out / "plots").glob("*.png")) if (out / "plots").is_dir() else []
     if images:
         parts.append("<h2>Figures</h2>")
-        for p in images:
+        for k, p in enumerate(images, 1):
             data = base64.b64encode(p.read_bytes()).decode()
-            parts.append(f"<figure><img alt='{html.escape(p.name)}' src='data:image/png;base64,{data}'>"
-                         f"<figcaption>{html.escape(p.name)}</figcaption></figure>")
+            text = html.escape(figure_caption(p.name, params))
+            parts.append(f"<figure><img alt='{text}' src='data:image/png;base64,{data}'>"
+                         f"<figcaption><b>Figure {k}.</b> {text}</figcaption></figure>")
+    parts.append(glossary_section("\n".join(parts)))
     parts.append("</body></html>")
     return "\n".join(parts)
+
+
+def figure_caption(name: str, params: list) -> str:
+    """What a sweep plot (``<result>_vs_<parameter>.png``) shows."""
+    from pydriver.sweep.plots import axis_label
+    result, _, param = Path(name).stem.partition("_vs_")
+    swept = next((q for q in params if re.sub(r"[^\w.-]", "_", q) == param), param)
+    others = [q for q in params if q != swept]
+    text = f"{axis_label(result)} of every finished point against {axis_label(swept)}"
+    if others:
+        text += ", one line per value of " + " and ".join(others)
+    return text + " (failed points are left out; the numbers are in sweep.csv)."

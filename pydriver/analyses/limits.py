@@ -1,0 +1,91 @@
+"""Values judged against the deck's limits (``&limits``): the largest jacket strain against
+``jacket_strain`` and the shortest fatigue life against ``fatigue_life_hours``.
+
+:func:`attach_limits` adds ``summary['limits']`` (one row per judged quantity: value, limit,
+where, exceeded) and a warning for each limit exceeded; the terminal summary and report.html
+show both.  A quantity the run computes but the deck sets no limit for is listed as not judged,
+so that a reader does not take silence for a pass.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def _largest_strain(result) -> tuple[float, str] | None:
+    """(largest |jacket strain|, where) of a run: the flight peaks, a dynamic run's time series,
+    or the equilibrium table (static, modal)."""
+    s = result.summary
+    peak = s.get("peaks", {}).get("strain")
+    if peak is not None:
+        where = f"joint {peak['joint']}" + (f", azimuth {peak['azimuth_deg']:.0f} deg" if "azimuth_deg" in peak else "")
+        return float(peak["max_abs"]), where
+    ts = result.timeseries
+    if ts is not None:
+        cols = [c for c in ts if c.startswith("strain") and c[6:].isdigit()]
+        if cols:
+            values = [float(np.max(np.abs(ts[c]))) for c in cols]
+            k = int(np.argmax(values))
+            return values[k], f"joint {cols[k][6:]}, over the run"
+    if result.table is not None and "strain" in result.table:
+        strain = np.abs(np.asarray(result.table["strain"], float))
+        if strain.size:
+            k = int(np.argmax(strain))
+            return float(strain[k]), f"joint {k + 1}, at the equilibrium"
+    return None
+
+
+def _shortest_life(result) -> tuple[float, str] | None:
+    hot = [h for h in result.summary.get("fatigue", {}).get("hotspots", []) if h["life_hours"] is not None]
+    if not hot:
+        return None
+    h = min(hot, key=lambda r: r["life_hours"])
+    return float(h["life_hours"]), h["quantity"]
+
+
+def judge(result, strain_limit: float | None, life_limit: float | None) -> list[dict]:
+    """The rows of summary['limits'] (see the module docstring)."""
+    rows = []
+    strain = _largest_strain(result)
+    if strain is not None:
+        value, where = strain
+        rows.append({"quantity": "largest jacket strain", "value": value, "unit": "-", "where": where,
+                     "limit": strain_limit, "key": "&limits jacket_strain", "sense": "at most",
+                     "exceeded": None if strain_limit is None else bool(value > strain_limit)})
+    life = _shortest_life(result)
+    if life is not None:
+        value, where = life
+        rows.append({"quantity": "shortest fatigue life", "value": value, "unit": "h", "where": where,
+                     "limit": life_limit, "key": "&limits fatigue_life_hours", "sense": "at least",
+                     "exceeded": None if life_limit is None else bool(value < life_limit)})
+    return rows
+
+
+def attach_limits(model, result) -> None:
+    """Add summary['limits'] and a warning per limit exceeded (a limit the run has no value
+    for is named in a warning too)."""
+    deck = model.deck
+    strain_limit = deck["limits.jacket_strain"]
+    life_limit = deck["limits.fatigue_life_hours"]
+    rows = judge(result, strain_limit, life_limit)
+    if not rows and strain_limit is None and life_limit is None:
+        return
+    result.summary["limits"] = rows
+    warnings = []
+    for r in rows:
+        if r["exceeded"]:
+            warnings.append(f"limit: {r['quantity']} {_fmt(r['value'], r['unit'])} ({r['where']}) is not "
+                            f"{r['sense']} {_fmt(r['limit'], r['unit'])} ({r['key']})")
+    judged = {r["key"] for r in rows}
+    for key, limit in (("&limits jacket_strain", strain_limit), ("&limits fatigue_life_hours", life_limit)):
+        if limit is not None and key not in judged:
+            warnings.append(f"limit: {key} = {limit:g} is not judged: this {model.analysis} run computes no "
+                            + ("jacket strain" if "strain" in key else "fatigue life (&fatigue)"))
+    if warnings:                        # no empty list: "no warnings key" means a clean run
+        result.summary.setdefault("warnings", []).extend(warnings)
+
+
+def _fmt(value: float, unit: str) -> str:
+    if unit == "-":
+        return f"{value:.4g} ({100 * value:.3g} %)"
+    return f"{value:.4g} {unit}"
