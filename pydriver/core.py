@@ -148,13 +148,15 @@ class CoreModel:
     # -- kinematics -----------------------------------------------------------------------
     def thesis_coordinates(self, gamma, beta, gamma_rate, beta_rate):
         """Coordinates and rates of a shape in the thesis's angles [rad, rad/s]."""
-        q, v = _api.rc_thesis_coordinates(self.handle, _reals(gamma), _reals(beta), _reals(gamma_rate),
-                                          _reals(beta_rate), self.nq)
+        q, v, stat, key, msg = _api.rc_thesis_coordinates(self.handle, _reals(gamma), _reals(beta),
+                                                          _reals(gamma_rate), _reals(beta_rate), self.nq)
+        _raise(self.deck, stat, key, msg)
         return q, v
 
     def shape(self, q, t: float = 0.0) -> dict:
         """Thesis angles (n, 2) [rad], CMs (n, 3), joint points (n+1, 3) [m], R_n at (q, t)."""
-        angles, cm, joints, rot = _api.rc_shape(self.handle, float(t), _reals(q), self.n_bodies)
+        angles, cm, joints, rot, stat, key, msg = _api.rc_shape(self.handle, float(t), _reals(q), self.n_bodies)
+        _raise(self.deck, stat, key, msg)
         return {"angles": angles.T.copy(), "cm": cm.T.copy(), "joints": joints.T.copy(), "last_rotation": rot}
 
     # -- analyses -------------------------------------------------------------------------

@@ -184,22 +184,42 @@ contains
     nb = model%chain%n_bodies; nq = model%nq; nc = model%nc
   end subroutine rc_model_sizes
 
+  !> An error unless the caller's sizes are the model's (explicit-shape arrays of another size
+  !> would be read or written out of bounds).
+  subroutine check_sizes(model, nq, nb, routine, error)
+    type(model_type), intent(in) :: model
+    integer(c_int), intent(in) :: nq, nb          !< coordinates, bodies as the caller has them
+    character(len=*), intent(in) :: routine       !< for the message
+    type(error_type), intent(inout) :: error
+    character(len=160) :: buf
+    if (nq == model%nq .and. nb == model%chain%n_bodies) return
+    write (buf, '(a, 4(a, i0), a)') routine, ': wrong sizes (nq = ', nq, ', nb = ', nb, &
+      '; the model has nq = ', model%nq, ', nb = ', model%chain%n_bodies, ')'
+    call fatal_error(error, trim(buf))
+  end subroutine check_sizes
+
   !> Coordinates and rates of a shape in the thesis's angles.
-  subroutine rc_thesis_coordinates(handle, nb, gamma, beta, gamma_rate, beta_rate, nq, q, v)
+  subroutine rc_thesis_coordinates(handle, nb, gamma, beta, gamma_rate, beta_rate, nq, q, v, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
     integer(c_int), intent(in) :: nb              !< bodies
     real(c_double), intent(in) :: gamma(nb), beta(nb)  !< thesis angles [rad]
     real(c_double), intent(in) :: gamma_rate(nb), beta_rate(nb)  !< their rates [rad/s]
     integer(c_int), intent(in) :: nq              !< coordinates
     real(c_double), intent(out) :: q(nq), v(nq)   !< coordinates [rad], rates [rad/s]
+    integer(c_int), intent(out) :: stat           !< status
+    character(len=64), intent(out) :: key         !< input at fault
+    character(len=1024), intent(out) :: msg       !< why
     type(model_type), pointer :: model
+    type(error_type) :: error
     q = 0.0_dp; v = 0.0_dp
-    model => lookup_model(handle)
-    if (associated(model)) call thesis_to_coordinates(model, gamma, beta, gamma_rate, beta_rate, q, v)
+    model => model_of(handle, error)
+    if (error%code == 0) call check_sizes(model, nq, nb, 'rc_thesis_coordinates', error)
+    if (error%code == 0) call thesis_to_coordinates(model, gamma, beta, gamma_rate, beta_rate, q, v)
+    call report(error, stat, key, msg)
   end subroutine rc_thesis_coordinates
 
   !> Shape at (q, t): thesis angles, CMs, joint points, and the last body's rotation.
-  subroutine rc_shape(handle, t, nq, q, nb, angles, cm, joints, last_rotation)
+  subroutine rc_shape(handle, t, nq, q, nb, angles, cm, joints, last_rotation, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
     real(c_double), intent(in) :: t               !< time [s]
     integer(c_int), intent(in) :: nq, nb          !< coordinates, bodies
@@ -208,13 +228,20 @@ contains
     real(c_double), intent(out) :: cm(3, nb)      !< centres of mass [m]
     real(c_double), intent(out) :: joints(3, nb + 1)  !< joint points, last = tip [m]
     real(c_double), intent(out) :: last_rotation(3, 3)  !< R_n
+    integer(c_int), intent(out) :: stat           !< status
+    character(len=64), intent(out) :: key         !< input at fault
+    character(len=1024), intent(out) :: msg       !< why
     type(model_type), pointer :: model
+    type(error_type) :: error
     angles = 0.0_dp; cm = 0.0_dp; joints = 0.0_dp; last_rotation = 0.0_dp
-    model => lookup_model(handle)
-    if (.not. associated(model)) return
-    call positions_at(model, t, q)
-    call shape_of(model, q, angles, cm, joints)
-    last_rotation = model%st%rot(:, :, nb)
+    model => model_of(handle, error)
+    if (error%code == 0) call check_sizes(model, nq, nb, 'rc_shape', error)
+    if (error%code == 0) then
+      call positions_at(model, t, q)
+      call shape_of(model, q, angles, cm, joints)
+      last_rotation = model%st%rot(:, :, nb)
+    end if
+    call report(error, stat, key, msg)
   end subroutine rc_shape
 
   !> Static equilibrium (relative to the model frame) at time t from a start shape.
@@ -289,7 +316,7 @@ contains
     type(error_type) :: error
     basis = 0.0_dp; m_full = 0.0_dp; m_r = 0.0_dp; k_r = 0.0_dp; d_r = 0.0_dp
     model => model_of(handle, error)
-    if (error%code == 0) call reduced_matrices(model, t, q, lambda(1:model%nc), basis, m_full, m_r, k_r, d_r)
+    if (error%code == 0) call reduced_matrices(model, t, q, lambda(1:model%nc), basis, m_full, m_r, k_r, d_r, error)
     call report(error, stat, key, msg)
   end subroutine rc_modal_matrices
 

@@ -110,6 +110,7 @@ contains
               self%s_pivots(2*self%nc))
     if (.not. present(ctx)) return
     self%handle = SUNLinSolNewEmpty(ctx)
+    if (.not. c_associated(self%handle)) return   ! out of memory: the caller reports the NULL handle
     call c_f_pointer(self%handle, ls)
     ls%content = c_loc(self)
     call c_f_pointer(ls%ops, ops)

@@ -150,10 +150,21 @@ contains
     allocate (s%ud)
     s%ud%model => model
     s%ud%nq = nq; s%ud%nc = nc
-    flag = SUNContext_Create(c_null_ptr, s%ctx)
+    call check(s, SUNContext_Create(c_null_ptr, s%ctx), 'SUNContext_Create', error)
+    if (error%code == 0) call require(s%ctx, 'SUNContext_Create', error)
+    if (error%code /= 0) then
+      s%failed = .true.
+      return
+    end if
     n64 = int(n, c_int64_t)
     s%yy = N_VNew_Serial(n64, s%ctx); s%yp = N_VNew_Serial(n64, s%ctx)
     s%id = N_VNew_Serial(n64, s%ctx); s%atol = N_VNew_Serial(n64, s%ctx)
+    call require(s%yy, 'N_VNew_Serial', error); call require(s%yp, 'N_VNew_Serial', error)
+    call require(s%id, 'N_VNew_Serial', error); call require(s%atol, 'N_VNew_Serial', error)
+    if (error%code /= 0) then
+      s%failed = .true.
+      return
+    end if
     if (settings%compiled_vector_kernels) then
       call use_fast_kernels(s%yy); call use_fast_kernels(s%yp)
       call use_fast_kernels(s%id); call use_fast_kernels(s%atol)
@@ -173,6 +184,11 @@ contains
     av = settings%atol_multiplier; av(1:2*nq) = settings%atol
 
     s%mem = IDACreate(s%ctx)
+    call require(s%mem, 'IDACreate', error)
+    if (error%code /= 0) then
+      s%failed = .true.
+      return
+    end if
     s%ud%mem = s%mem
     s%ud%jacobian_max_age = settings%jacobian_max_age
     s%ud%analytic = settings%analytic_jacobian
@@ -187,19 +203,27 @@ contains
       allocate (s%chain)
       call chain_solver_create(s%chain, model, s%mem, s%ctx, settings%jacobian_max_age)
       s%ls = s%chain%handle
+      call require(s%ls, 'SUNLinSolNewEmpty (chain solver)', error)
       call check(s, IDASetLinearSolver(s%mem, s%ls, c_null_ptr), 'IDASetLinearSolver', error)
       call finish_start(s, settings, error)
       return
     end if
     allocate (s%ud%physics(n, n))
     s%mat = SUNDenseMatrix(n64, n64, s%ctx)
+    call require(s%mat, 'SUNDenseMatrix', error)
+    if (error%code /= 0) then
+      s%failed = .true.
+      return
+    end if
     if (settings%linear_solver == LINEAR_SOLVER_BLOCK .and. settings%structured_jacobian) then
       allocate (s%block)
       call block_solver_create(s%block, nq, nc, s%ctx)
       s%ud%block => s%block
       s%ls = s%block%handle
+      call require(s%ls, 'SUNLinSolNewEmpty (block solver)', error)
     else
       s%ls = SUNLinSol_Dense(s%yy, s%mat, s%ctx)
+      call require(s%ls, 'SUNLinSol_Dense', error)
     end if
     call check(s, IDASetLinearSolver(s%mem, s%ls, s%mat), 'IDASetLinearSolver', error)
     if (settings%structured_jacobian) call check(s, IDASetJacFn(s%mem, c_funloc(ggl_jacobian)), 'IDASetJacFn', error)
@@ -271,7 +295,8 @@ contains
     character(len=96) :: buf
     call c_f_pointer(N_VGetArrayPointer(s%yy), y, [2*s%model%nq + 2*s%model%nc])
     tret = real(s%t_now, c_double)
-    flag = IDAGetNumSteps(s%mem, used)
+    call check(s, IDAGetNumSteps(s%mem, used), 'IDAGetNumSteps', error)
+    if (error%code /= 0) return
     used = used + s%earlier%steps
     if (used >= s%settings%max_steps) then
       flag = -1_c_int
@@ -400,6 +425,15 @@ contains
       call fatal_error(error, 'SUNDIALS '//what//' failed with flag '//trim(buf)//': '//trim(s%ud%ida_message))
     end if
   end subroutine check
+
+  !> A SUNDIALS constructor that returned NULL (out of memory, or an invalid context) becomes
+  !> the error; the constructors report no flag and call no error handler.
+  subroutine require(ptr, what, error)
+    type(c_ptr), intent(in) :: ptr
+    character(len=*), intent(in) :: what
+    type(error_type), intent(inout) :: error
+    if (.not. c_associated(ptr)) call fatal_error(error, 'SUNDIALS '//what//' returned NULL (out of memory?)')
+  end subroutine require
 
   !> Diagnostic appended to a failed run: the joint nearest its coordinate singularity, if
   !> it is near.  The thesis's zy joint is singular at beta = 0 (gamma stops being a bending

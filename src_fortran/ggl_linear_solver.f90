@@ -83,6 +83,7 @@ contains
               self%cq(nc, nq), self%c_rows(2*nc, nq), self%kinv_b(nq, 2*nc), &
               self%s(2*nc, 2*nc), self%s_pivots(2*nc))
     self%handle = SUNLinSolNewEmpty(ctx)
+    if (.not. c_associated(self%handle)) return   ! out of memory: the caller reports the NULL handle
     call c_f_pointer(self%handle, ls)
     ls%content = c_loc(self)
     call c_f_pointer(ls%ops, ops)

@@ -18,7 +18,7 @@ module rotorcable_modal
   use rotorcable_errors, only: error_type, fatal_error
   use rotorcable_model, only: model_type, mass_matrix, constraint_jacobian
   use rotorcable_statics, only: tangent_stiffness, damping_matrix
-  use rotorcable_linalg, only: null_space, all_finite
+  use rotorcable_linalg, only: null_space, all_finite, INFO_NOT_FINITE
   use rotorcable_fpe_guard, only: fpe_pause, fpe_resume
   implicit none
   private
@@ -51,8 +51,9 @@ contains
   !> G(q*) (LAPACK dgesvd), the full mass matrix and M_r = N^T M N, K_r = N^T K N, D_r = N^T D N.
   !> M_r and K_r are made symmetric (round-off aside they are, for conservative loads); D_r keeps
   !> its skew part, the gyroscopic (Coriolis) coupling of a turning frame that splits the modes
-  !> with the rotor speed.
-  subroutine reduced_matrices(model, t, q, lambda, basis, m_full, m_r, k_r, d_r)
+  !> with the rotor speed.  A failed null space (a non-finite G, or dgesvd not converging)
+  !> is an error, and the matrices are then left zero.
+  subroutine reduced_matrices(model, t, q, lambda, basis, m_full, m_r, k_r, d_r, error)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t                 !< time of the equilibrium [s]
     real(dp), intent(in) :: q(:)              !< equilibrium coordinates [rad]
@@ -60,10 +61,23 @@ contains
     real(dp), intent(out) :: basis(:, :)      !< (nq,nf) N
     real(dp), intent(out) :: m_full(:, :)     !< (nq,nq) M
     real(dp), intent(out) :: m_r(:, :), k_r(:, :), d_r(:, :)  !< (nf,nf) reduced matrices
+    type(error_type), intent(inout) :: error  !< status
     real(dp) :: g_jac(model%nc, model%nq), k_full(model%nq, model%nq), d_full(model%nq, model%nq)
     integer :: info, n_eval
+    character(len=16) :: buf
+    basis = 0.0_dp; m_full = 0.0_dp; m_r = 0.0_dp; k_r = 0.0_dp; d_r = 0.0_dp
     if (model%nc > 0) call constraint_jacobian(model, t, q, g_jac)
     call null_space(g_jac, basis, info)
+    if (info == INFO_NOT_FINITE) then
+      call fatal_error(error, 'modal analysis: non-finite constraint Jacobian G at the equilibrium '// &
+                       '(null space of G not formed)')
+      return
+    else if (info /= 0) then
+      write (buf, '(i0)') info
+      call fatal_error(error, 'modal analysis: null space of the constraint Jacobian G failed '// &
+                       '(LAPACK dgesvd info = '//trim(buf)//')')
+      return
+    end if
     call mass_matrix(model, t, q, m_full)
     n_eval = 0
     call tangent_stiffness(model, t, q, lambda, k_full, n_eval)
@@ -96,7 +110,8 @@ contains
 
     nq = model%nq; nc = model%nc; nf = nq - nc
     allocate (basis(nq, nf), m_full(nq, nq), m_r(nf, nf), k_r(nf, nf), d_r(nf, nf))
-    call reduced_matrices(model, t, q, lambda, basis, m_full, m_r, k_r, d_r)
+    call reduced_matrices(model, t, q, lambda, basis, m_full, m_r, k_r, d_r, error)
+    if (error%code /= 0) return
     if (.not. (all_finite(m_r) .and. all_finite(k_r) .and. all_finite(d_r))) then
       call fatal_error(error, 'modal analysis: non-finite mass, stiffness or damping matrix')
       return

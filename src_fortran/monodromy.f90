@@ -17,7 +17,7 @@
 !> acceleration-level solve (eq. 3.55) along (s_q, s_v).
 module rotorcable_monodromy
   use, intrinsic :: iso_c_binding, only: c_int, c_long, c_double, c_ptr, c_loc, c_funloc, &
-                                         c_f_pointer, c_associated, c_int64_t
+                                         c_f_pointer, c_associated, c_int64_t, c_null_ptr
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error
   use rotorcable_model, only: model_type, solve_accelerations, constraint_jacobian
@@ -82,9 +82,15 @@ contains
     end if
     if (error%code == 0) then
       allocate (ys(ns), yps(ns), atols(ns))
+      ys = c_null_ptr; yps = c_null_ptr       ! the clean-up below frees only what was made
       do k = 1, ns
         ys(k) = N_VNew_Serial(int(n, c_int64_t), s%ctx)
         yps(k) = N_VNew_Serial(int(n, c_int64_t), s%ctx)
+        if (.not. (c_associated(ys(k)) .and. c_associated(yps(k)))) then
+          ! The constructor reports no flag; the vectors made so far are freed below.
+          call fatal_error(error, 'SUNDIALS N_VNew_Serial returned NULL for a sensitivity vector (out of memory?)')
+          exit
+        end if
         if (settings%compiled_vector_kernels) then
           call use_fast_kernels(ys(k)); call use_fast_kernels(yps(k))
         end if
@@ -93,6 +99,8 @@ contains
         ! The sensitivities are per unit of x (rad, rad/s): the state's own absolute tolerances.
         atols(k) = s%atol
       end do
+    end if
+    if (error%code == 0) then
       call check(IDASensInit(s%mem, int(ns, c_int), IDA_STAGGERED, c_funloc(sensitivity_residual), &
                              c_loc(ys), c_loc(yps)), 'IDASensInit', s, error)
       call check(IDASensSVtolerances(s%mem, real(settings%rtol, c_double), c_loc(atols)), &

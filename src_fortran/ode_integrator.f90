@@ -153,7 +153,15 @@ contains
       return
     end if
     flag = gsl_odeiv2_driver_set_nmax(d, int(settings%max_steps, c_long))
-    if (settings%h_max > 0.0_dp) flag = gsl_odeiv2_driver_set_hmax(d, real(settings%h_max, c_double))
+    if (flag == GSL_SUCCESS .and. settings%h_max > 0.0_dp) &
+      flag = gsl_odeiv2_driver_set_hmax(d, real(settings%h_max, c_double))
+    if (flag /= GSL_SUCCESS) then
+      write (buf, '(i0)') flag
+      call fatal_error(error, 'GSL could not set the ODE driver''s step limit or maximum step (status '// &
+                       trim(buf)//')')
+      call gsl_odeiv2_driver_free(d)
+      return
+    end if
 
     call switch_times(model, t_switch)
     t = t_out(1)
@@ -167,13 +175,14 @@ contains
           if (flag /= GSL_SUCCESS) exit
           call harvest_counts()       ! the reset zeroes GSL's counters
           flag = gsl_odeiv2_driver_reset(d)
+          if (flag /= GSL_SUCCESS) exit
         end if
         s = s + 1
       end do
       if (flag == GSL_SUCCESS .and. t_out(k) > t) flag = gsl_odeiv2_driver_apply(d, t, real(t_out(k), c_double), y)
       if (flag /= GSL_SUCCESS) then
         write (buf, '(i0, a, es10.3)') flag, ' at t = ', t
-        call fatal_error(error, 'GSL gsl_odeiv2_driver_apply failed with status '//trim(buf)// &
+        call fatal_error(error, 'GSL gsl_odeiv2_driver_apply or _reset failed with status '//trim(buf)// &
                          ' (step size underflow, step limit or singular acceleration system)')
         exit
       end if
