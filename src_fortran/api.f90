@@ -22,7 +22,7 @@ module rotorcable_api
   implicit none
   private
   public :: rc_model_new, rc_model_free, rc_model_add_load, rc_model_set_base, rc_model_set_clamp, &
-            rc_model_set_rotor, rc_model_finish, rc_model_sizes, rc_thesis_coordinates, rc_shape, rc_static, &
+            rc_model_set_rotor, rc_model_finish, rc_thesis_coordinates, rc_shape, rc_static, &
             rc_modal, rc_modal_matrices, rc_dynamic_start, rc_dynamic_advance, rc_dynamic_free, rc_sample, &
             rc_monodromy
 
@@ -172,17 +172,6 @@ contains
     end if
     call report(error, stat, key, msg)
   end subroutine rc_model_finish
-
-  !> Sizes of a model.
-  subroutine rc_model_sizes(handle, nb, nq, nc)
-    integer(c_int), intent(in) :: handle          !< model handle
-    integer(c_int), intent(out) :: nb, nq, nc     !< bodies, coordinates, constraint rows
-    type(model_type), pointer :: model
-    nb = 0; nq = 0; nc = 0
-    model => lookup_model(handle)
-    if (.not. associated(model)) return
-    nb = model%chain%n_bodies; nq = model%nq; nc = model%nc
-  end subroutine rc_model_sizes
 
   !> An error unless the caller's sizes are the model's (explicit-shape arrays of another size
   !> would be read or written out of bounds).

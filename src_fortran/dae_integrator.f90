@@ -38,8 +38,7 @@ module rotorcable_dae_integrator
     real(dp) :: atol_multiplier = 1.0e4_dp    !< absolute tolerance on lambda, mu [N, Nm] (Newton test only)
     real(dp) :: h_max = 0.0_dp                !< maximum step [s] (0 = IDA's default)
     integer :: max_steps = 500000             !< step budget of the whole run (a run never hangs)
-    logical :: structured_jacobian = .true.   !< own Jacobian (ggl_jacobian) instead of IDA's DQ
-    integer :: linear_solver = LINEAR_SOLVER_BLOCK  !< block needs the structured Jacobian (cj)
+    integer :: linear_solver = LINEAR_SOLVER_BLOCK  !< block, dense or chain (block and dense use ggl_jacobian)
     integer :: jacobian_max_age = 100         !< steps over which the physics Jacobian is kept (docs/model.md)
     logical :: compiled_vector_kernels = .true.  !< nvector_kernels instead of libsundials's own
     logical :: analytic_jacobian = .true.     !< physics Jacobian by tangent sweeps (else differences)
@@ -132,7 +131,6 @@ contains
     real(c_double), pointer :: y(:), yd(:), idv(:), av(:)
     real(dp) :: vdot(model%nq), lambda(max(model%nc, 1))
     integer(c_int64_t) :: n64
-    integer(c_int) :: flag
     integer :: nq, nc, n
 
     nq = model%nq; nc = model%nc; n = 2*nq + 2*nc
@@ -215,7 +213,7 @@ contains
       s%failed = .true.
       return
     end if
-    if (settings%linear_solver == LINEAR_SOLVER_BLOCK .and. settings%structured_jacobian) then
+    if (settings%linear_solver == LINEAR_SOLVER_BLOCK) then
       allocate (s%block)
       call block_solver_create(s%block, nq, nc, s%ctx)
       s%ud%block => s%block
@@ -226,7 +224,7 @@ contains
       call require(s%ls, 'SUNLinSol_Dense', error)
     end if
     call check(s, IDASetLinearSolver(s%mem, s%ls, s%mat), 'IDASetLinearSolver', error)
-    if (settings%structured_jacobian) call check(s, IDASetJacFn(s%mem, c_funloc(ggl_jacobian)), 'IDASetJacFn', error)
+    call check(s, IDASetJacFn(s%mem, c_funloc(ggl_jacobian)), 'IDASetJacFn', error)
     call finish_start(s, settings, error)
   end subroutine session_start
 

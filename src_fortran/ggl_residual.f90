@@ -32,7 +32,6 @@ module rotorcable_ggl_residual
     integer(c_long) :: physics_fails = 0      !< IDA's convergence failures then
     integer :: jacobian_max_age = 1           !< steps before they are formed again
     logical :: analytic = .true.              !< physics columns by tangent sweeps (else differences)
-    integer :: physics_evals = 0              !< how often they were formed
     character(len=512) :: ida_message = ''
   end type ida_user_data
 
@@ -236,7 +235,6 @@ contains
       call physics_jacobian(ud%model, t, y, yd, ud%physics, ud%analytic)
       ud%jac_residuals = ud%jac_residuals + 1
       if (.not. ud%analytic) ud%jac_residuals = ud%jac_residuals + 4*ud%nq - 1
-      ud%physics_evals = ud%physics_evals + 1
       ud%physics_valid = .true.
       ud%physics_step = steps
       ud%physics_fails = fails

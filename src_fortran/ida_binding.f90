@@ -16,7 +16,7 @@ module rotorcable_ida_binding
             IDAGetNumSteps, IDAGetNumResEvals, IDAGetNumJacEvals, IDAGetNumLinResEvals, &
             IDAGetNumErrTestFails, IDAGetNumNonlinSolvConvFails, IDASetErrHandlerFn, IDA_NORMAL, &
             IDASetJacFn, SUNDenseMatrix_Data, IDAGetNumLinSolvSetups, IDAGetCurrentCj, IDAGetCurrentY, &
-            IDAGetCurrentTime, IDASetPreconditioner, IDASensInit, IDASensSVtolerances, IDASetSensErrCon, &
+            IDAGetCurrentTime, IDASensInit, IDASensSVtolerances, IDASetSensErrCon, &
             IDAGetSens, IDASensFree, IDAGetSensNumResEvals, IDAGetSensNumNonlinSolvIters, IDA_STAGGERED, IDASetInitStep
 
   public :: sun_linear_solver, sun_linear_solver_ops, SUNLINEARSOLVER_DIRECT, SUNLINEARSOLVER_MATRIX_EMBEDDED, &
@@ -226,11 +226,6 @@ module rotorcable_ida_binding
       type(c_ptr), value :: mem
       real(c_double) :: tcur
     end function IDAGetCurrentTime
-    integer(c_int) function IDASetPreconditioner(mem, psetup, psolve) bind(C, name='IDASetPreconditioner')
-      import :: c_int, c_ptr, c_funptr
-      type(c_ptr), value :: mem
-      type(c_funptr), value :: psetup, psolve
-    end function IDASetPreconditioner
     ! IDAS forward sensitivities (idas.h); N_Vector* arguments are c_loc of arrays of c_ptr.
     integer(c_int) function IDASensInit(mem, ns, ism, res_s, ys0, yps0) bind(C, name='IDASensInit')
       import :: c_int, c_ptr, c_funptr

@@ -7,7 +7,7 @@ module rotorcable_rotations
   use rotorcable_kinds, only: dp
   implicit none
   private
-  public :: rot_x, rot_y, rot_z, cross, skew, vee, identity3, rotation_log, rotation_exp
+  public :: rot_y, rot_z, cross, skew, vee, identity3, rotation_log, rotation_exp
 
 contains
 
@@ -21,17 +21,6 @@ contains
     r(:, 2) = [-s, c, 0.0_dp]
     r(:, 3) = [0.0_dp, 0.0_dp, 1.0_dp]
   end function rot_z
-
-  !> Active rotation about x by angle a.
-  pure function rot_x(a) result(r)
-    real(dp), intent(in) :: a          !< angle [rad]
-    real(dp) :: r(3, 3)
-    real(dp) :: c, s
-    c = cos(a); s = sin(a)
-    r(:, 1) = [1.0_dp, 0.0_dp, 0.0_dp]
-    r(:, 2) = [0.0_dp, c, s]
-    r(:, 3) = [0.0_dp, -s, c]
-  end function rot_x
 
   !> Active rotation about y by angle b (transpose of thesis eq. 4.6).
   pure function rot_y(b) result(r)
