@@ -1,7 +1,8 @@
 """Reading a deck: Fortran namelist text -> validated values, by f90nml and the schema.
 
 f90nml (PyPI) gives the namelist semantics (repeat counts ``10*3.05``, element assignments
-``key(3) = ...``, comments, one-line groups, tabs, long lines); :mod:`pydriver.schema` says what
+``key(3) = ...``, one-line groups, tabs, long lines); comments (``!`` to the end of the line)
+are stripped before f90nml sees the text (:func:`strip_comments`); :mod:`pydriver.schema` says what
 each key must be.  Every problem becomes a :class:`~pydriver.errors.DeckError` naming the deck,
 the group, the key and the reason.  Cross-key rules come afterwards (:mod:`pydriver.deck_rules`).
 """
@@ -449,8 +450,10 @@ def patch_deck(src, dst, changes: dict) -> Path:
 
     Values are Python values or namelist value texts (``"35.0"``, ``"90.0, 10*0.0"``,
     ``"'modal'"``); keys are checked against the schema.  ``key(i)`` changes one element of an
-    array key (the other elements keep the base deck's values).  Everything else of the deck
-    (comments, order, other keys) is kept; a missing group is added.
+    array key (the other elements keep the base deck's values).  The other keys and their
+    values are kept and a missing group is added, but the deck's comments are not: the copy is
+    parsed without them and written again by f90nml, with one first comment line that names
+    the source deck and the changes.
     """
     name = Path(src).name
     base = None

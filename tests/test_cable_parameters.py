@@ -75,6 +75,20 @@ def test_physical_parameters_are_the_per_joint_springs():
     assert physical.description["stiffness"][0] == pytest.approx(2 * c, rel=1e-14)
 
 
+def test_cable_summary_reports_the_interior_bending_spring():
+    """summary.json's c_beta_Nm_per_rad of a &cable run is the bending spring the model was
+    built with at an interior joint, EI/l (issue 23: it had been the unused &springs default,
+    0.0).  Both sides divide the same EI by the same l: equal to round-off (1e-14 relative)."""
+    n = 11
+    physical = cantilever(n)
+    reported = pydriver.run_deck(physical).summary["c_beta_Nm_per_rad"]
+    # Joint 'xy' on a clamped first body: coordinates 0, 1 are joint 1 (2 EI/l on the clamp),
+    # 2, 3 joint 2, an interior joint.
+    built = physical.description["stiffness"][2]
+    assert reported == pytest.approx(built, rel=1e-14)
+    assert reported == pytest.approx(EI / (L / n), rel=1e-14)
+
+
 def test_spring_on_joint_one_only():
     """The three-body chain with its spring on joint 1 only ("free" reading of thesis 4.1):
     bodies 2 and 3 hang straight down, and joint 1 balances the chain's weight against its
