@@ -75,17 +75,22 @@ STIFF = {"chain": {"n_bodies": "22"},
          "solver": {"t_end": "0.3", "max_steps": "50000"}}
 
 
-def test_stiff_joints_zy_stop_with_a_diagnostic_or_succeed(tmp_path):
-    """c_y = 1e4 Nm/rad on 27 mm, 14 g segments, c_z = d_z = 1e-6: the decay test of part 2.
-    With the thesis's joint a stiff chain wanders through beta = 0, where gamma must spin."""
+def test_stiff_joints_zy_succeed_within_the_step_budget(tmp_path):
+    """c_y = 1e4 Nm/rad on 27 mm, 14 g segments, c_z = d_z = 1e-6: the decay test of part 2
+    with the thesis's joint.  A stiff chain with a nearly free gamma is the hard case for the
+    zy joint (gamma must spin where beta passes near 0); the run must reach t_end within the
+    step budget (50000 steps) at the deck's tolerances, not fail or hang.  (Before issue 23 the
+    test also passed on any SUNDIALS failure.)"""
     path = deck(tmp_path, "uh60_part2_decay", STIFF)
-    try:
-        res = pydriver.run_deck(path)
-    except pydriver.RunError as exc:
-        msg = str(exc)
-        assert "max_steps" in msg or "SUNDIALS" in msg
-        return
-    assert finite(res) and res.summary["max_constraint_violation_m"] < 1e-9
+    res = pydriver.run_deck(path)
+    assert finite(res)
+    assert res.timeseries["t"][-1] == pytest.approx(0.3, rel=0.0, abs=1e-12)   # the whole run
+    # GGL keeps the clamp closed to the corrector tolerance: 1e-9 m is issue 4's bound.
+    assert res.summary["max_constraint_violation_m"] < 1e-9
+    # After the pulse (t >= 0.1 s) the dampers only take energy out; a gain above the
+    # integration error (rtol 1e-8 of the energy scale) would be a wrong solution.
+    e = res.extra["energy"][res.timeseries["t"] >= 0.1]
+    assert np.max(e - np.minimum.accumulate(e)) <= 1e-8 * np.max(np.abs(e))
 
 
 def test_stiff_joints_cardan_chain_succeeds_accurately(tmp_path):
@@ -116,12 +121,12 @@ def _taut(tmp_path, reach):
 @pytest.mark.parametrize("reach", [0.99, 0.999, 0.99999])
 def test_almost_taut_cable(tmp_path, reach):
     """Clamp B on the straight line from A at 99 ... 99.999 % of the free length: the
-    constraint Jacobian loses rank as the cable straightens."""
-    try:
-        res = pydriver.run_deck(_taut(tmp_path, reach))
-    except pydriver.RunError as exc:
-        assert "deck" in str(exc)
-        return
+    constraint Jacobian loses rank as the cable straightens, but up to 99.999 % it keeps
+    enough (rank margin above the solver's RANK_TOL), so the statics must converge to an
+    equilibrium that closes the clamp and balances the weight.  (Before issue 23 any RunError
+    passed; a refused deck is tested below, test_unreachable_clamp_is_a_deck_error.)"""
+    res = pydriver.run_deck(_taut(tmp_path, reach))
+    assert finite(res)
     s = res.summary
     assert s["max_constraint_violation_m"] < 1e-9
     fa, fb = np.array(s["reactions"]["A"]["F"]), np.array(s["reactions"]["B"]["F"])

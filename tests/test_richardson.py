@@ -17,11 +17,19 @@ H = (1.0 / 8.0, 1.0 / 16.0, 1.0 / 32.0)          # grids n = 8, 16, 32: coarse t
 
 
 def assert_all_finite(e: Extrapolation):
-    """Every number of a result is finite (the module's promise)."""
+    """Every number of a result is finite, and any doubt is a sentence (the module's promise)."""
     numbers = [*e.values, e.extrapolated, e.observed_order, e.error_estimate, e.expected_order,
                e.order_used]
     assert all(math.isfinite(x) for x in numbers), e
-    assert e.warning is None or isinstance(e.warning, str)
+    assert e.error_estimate >= 0.0, e
+    if e.warning is None:
+        # No doubt: the observed order was positive and is the one used.
+        assert e.observed_order > 0.0 and e.order_used == e.observed_order, e
+    else:
+        # A doubt is a sentence that says which order was used instead (an empty or non-text
+        # warning would also make order_used fall back to the observed order silently).
+        assert isinstance(e.warning, str) and "expected order" in e.warning, e
+        assert e.order_used == e.expected_order, e
 
 
 @pytest.mark.parametrize("d", [0.4, -0.4])
