@@ -12,7 +12,7 @@ module rotorcable_dae_integrator
   use rotorcable_errors, only: error_type, fatal_error
   use rotorcable_model, only: model_type, solve_accelerations, switch_times
   use rotorcable_projection, only: project_positions, project_velocities, constraint_rank_margin, &
-                                   rank_loss_message
+                                   rank_loss_message, RANK_TOL
   use rotorcable_ggl_residual, only: ida_user_data, ggl_residual, ggl_jacobian
   use rotorcable_ida_binding
   use rotorcable_joint, only: JOINT_ZY
@@ -28,8 +28,6 @@ module rotorcable_dae_integrator
   integer, parameter :: LINEAR_SOLVER_DENSE = 2  !< SUNDIALS's dense LU of the whole matrix
   !> O(n) articulated-body solve of an approximate iteration matrix (chain_linear_solver)
   integer, parameter :: LINEAR_SOLVER_CHAIN = 3
-  !> sigma_min/sigma_max of G below which the start's constraints count as dependent.
-  real(dp), parameter :: RANK_TOL = 1.0e-7_dp
 
   !> Settings of one time integration (from the deck's &solver group).
   type :: integrator_settings

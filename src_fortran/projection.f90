@@ -10,6 +10,11 @@ module rotorcable_projection
   private
   public :: project_positions, project_velocities, constraint_rank_margin, rank_loss_message, clamp_reach
 
+  !> constraint_rank_margin below which the constraints count as dependent (a regular closed
+  !> chain has 1e-3 to 1e-1; exactly taut or straight chains 1e-16 to 1e-9).  The one value the
+  !> statics and the integrator's consistent start both refuse a chain by.
+  real(dp), parameter, public :: RANK_TOL = 1.0e-7_dp
+
 contains
 
   !> Project q onto g(q, t) = 0: the smallest change of the deck's shape that closes the chain.

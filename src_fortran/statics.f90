@@ -6,7 +6,7 @@ module rotorcable_statics
   use rotorcable_model, only: model_type, eom_residual, eom_residual_tangent, constraint_residual, &
                               constraint_jacobian, total_energy, &
                               all_conservative
-  use rotorcable_projection, only: project_positions, constraint_rank_margin, rank_loss_message
+  use rotorcable_projection, only: project_positions, constraint_rank_margin, rank_loss_message, RANK_TOL
   use rotorcable_linalg, only: solve_least_norm, null_space, solve_spd, solve_dense
   implicit none
   private
@@ -30,10 +30,6 @@ module rotorcable_statics
     real(dp) :: force_residual = 0.0_dp       !< final max |F_q| [Nm]
     real(dp) :: constraint_residual = 0.0_dp  !< final max |g|
   end type static_result
-
-  !> sigma_min/sigma_max of G below which the constraints count as dependent (a regular closed
-  !> chain has 1e-3 to 1e-1; exactly taut or straight chains 1e-16 to 1e-9).
-  real(dp), parameter, public :: RANK_TOL = 1.0e-7_dp
 
 contains
 
