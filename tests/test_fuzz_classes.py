@@ -36,7 +36,10 @@ DECKS = sorted(p.stem for p in INPUTS.glob("*.nml"))
 KEYS_PER_CLASS = 4
 #: Short runs: the classes are about input handling, not long integrations.
 SHORT = {"solver": {"t_end": "0.02", "dt_out": "0.01", "max_steps": "20000", "newton_max_iter": "60",
-                    "samples_per_rev": "36", "max_revolutions": "12"}}
+                    "samples_per_rev": "36", "max_revolutions": "12",
+                    # The main job's Floquet analysis is a second run with 54 IDAS sensitivities: the
+                    # classes here test input handling, not it (tests/test_floquet.py does).
+                    "floquet": ".false."}}
 
 
 def short_base(stem: str, tmp_path):
