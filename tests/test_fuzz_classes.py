@@ -39,6 +39,11 @@ SHORT = {"solver": {"t_end": "0.02", "dt_out": "0.01", "max_steps": "20000", "ne
                     "samples_per_rev": "36", "max_revolutions": "12"}}
 
 
+#: Bad &design parameters values (tests/test_design_sensitivities.py has the reasons).
+DESIGN_VALUES = ["'chain.lenght'", "'solver.rtol'", "1.0", "''", "'loads.gravity(9)'", "'shape.beta_deg'",
+                 "'chain.total_length', 'chain.total_length'", "'loads.gravity'", ".true."]
+
+
 def short_base(stem: str, tmp_path):
     changes = {g: dict(k) for g, k in SHORT.items()}
     deck = read_deck(INPUTS / f"{stem}.nml")
@@ -108,6 +113,11 @@ def mutations(stem: str, deck, rng):
         out.append(("malformed", g, k, str(rng.choice(["1.2.3", "1-70", "1e", "--1.0", "1.0e+", "2.5+1"]))))
     for g, k in pick(shapes):
         out.append(("scalar", g, k, str(rng.choice(["37.0", "-12.5", "90.0"]))))
+    # &design parameters (issue 24): names that are no key, no differentiable key, no element, no
+    # name at all; or any name on an analysis without sensitivities.  Their own generator, so that
+    # the draws of the other classes stay as they were.
+    for value in np.random.default_rng(sum(map(ord, stem))).choice(DESIGN_VALUES, 2, replace=False):
+        out.append(("design", "design", "parameters", str(value)))
     return out
 
 
@@ -154,6 +164,6 @@ def test_every_class_of_bad_input_fails_cleanly_or_runs_plausibly(tmp_path):
                 assert all(np.all(np.isfinite(np.asarray(v, float))) for v in cols.values()), (id_, name)
         for support in res.summary.get("reactions", {}).values():
             assert np.all(np.abs(support["F"]) < 1e6), (id_, support)
-    assert classes == {"int32", "repeat", "denormal", "reversed", "single", "malformed", "scalar"}
+    assert classes == {"int32", "repeat", "denormal", "reversed", "single", "malformed", "scalar", "design"}
     # Both outcomes occur (a corpus that only ever fails would prove little).
     assert outcomes["deck error"] > 100 and outcomes["ran"] > 10, outcomes

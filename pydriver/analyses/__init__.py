@@ -9,7 +9,11 @@ from __future__ import annotations
 def run(model, run_dir=None, restart=None):
     """Run the deck's analysis; time series stream into ``run_dir`` (an output.RunDirectory).
     With ``&refinement levels > 1`` the analysis runs at n, 2n, 4n ... bodies
-    (:mod:`pydriver.analyses.refinement`).  ``restart`` (a checkpoint) continues a dynamic run."""
+    (:mod:`pydriver.analyses.refinement`).  ``restart`` (a checkpoint) continues a dynamic run.
+    With ``&design parameters`` a static or modal run adds its design sensitivities
+    (:mod:`pydriver.analyses.sensitivities`); the parameters are checked before the analysis."""
+    from pydriver.analyses.sensitivities import attach_sensitivities, plan
+    plans = plan(model)
     if restart is not None:
         if model.deck["refinement.levels"] > 1:
             model.deck.fail("refinement", "levels", "--restart continues one run at one n: set levels = 1")
@@ -23,6 +27,7 @@ def run(model, run_dir=None, restart=None):
     if "fatigue" in model.deck.groups and model.analysis not in ("flight", "dynamic"):
         result.summary.setdefault("warnings", []).append(
             f"&fatigue is not evaluated: analysis '{model.analysis}' has no load history (flight or dynamic has)")
+    attach_sensitivities(model, result, plans)
     from pydriver.analyses.resonance import attach_margins
     attach_margins(model, result)
     from pydriver.analyses.limits import attach_limits
