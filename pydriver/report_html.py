@@ -64,7 +64,9 @@ def _cell(v) -> str:
     if isinstance(v, (float, np.floating)):
         return _num(float(v))
     if isinstance(v, np.ndarray):
-        return ", ".join(_num(float(x)) for x in v.ravel()[:12]) + (" ..." if v.size > 12 else "")
+        # A list of names (&design parameters) is shown as names, numbers in the short number form.
+        items = [x if isinstance(x, str) else _num(float(x)) for x in v.ravel()[:12]]
+        return ", ".join(items) + (" ..." if v.size > 12 else "")
     return str(v)
 
 
