@@ -89,9 +89,10 @@ def _keys() -> list[Key]:
     add = k.append
     # &case --------------------------------------------------------------------------------
     add(Key("case", "name", "str", default="", doc="case name (summary, tables); default: the deck's file stem"))
-    add(Key("case", "analysis", "str", choices=("static", "dynamic", "modal", "flight", "campbell"),
+    add(Key("case", "analysis", "str", choices=("static", "dynamic", "modal", "flight", "campbell", "design"),
             doc="static equilibrium, dynamic run, modal analysis about the equilibrium, forward flight "
-                "to a periodic steady state, or Campbell diagram over rotor speed"))
+                "to a periodic steady state, Campbell diagram over rotor speed, or design optimisation "
+                "(&design; docs/model.md, \"Design optimisation\")"))
     add(Key("case", "description", "str", default="", doc="free text"))
     add(Key("case", "start", "str", default="shape", choices=("shape", "equilibrium"),
             doc="dynamic start: the deck's shape (made consistent) or at rest in the static equilibrium"))
@@ -296,6 +297,28 @@ def _keys() -> list[Key]:
                 "\"Design sensitivities\")",
             allowed="1 ... 64 names of differentiable keys",
             note="a name is a key of this reference marked differentiable, as group.key or group.key(i)"))
+    # The optimiser (analysis = 'design'; pydriver/design_problem.py, docs/model.md "Design optimisation").
+    add(Key("design", "objective", "str", choices=("max_reaction_force", "max_joint_moment", "neg_first_frequency"),
+            doc="analysis = 'design': what is minimised: the largest support force |F| of the equilibrium, the "
+                "largest joint moment sqrt(bending^2 + torsion^2), or minus the first undamped frequency"))
+    add(Key("design", "lower", "real", "list", "*", low=-1.0e9, high=1.0e9,
+            doc="analysis = 'design': lower bound of each parameter, in the order of parameters and in its unit "
+                "(degrees for an angle); the deck's value must lie within the bounds"))
+    add(Key("design", "upper", "real", "list", "*", low=-1.0e9, high=1.0e9,
+            doc="analysis = 'design': upper bound of each parameter (above its lower bound)"))
+    add(Key("design", "frequency_margin_percent", "real", unit="%", low=0.0, high=100.0, low_open=True,
+            high_open=True,
+            doc="analysis = 'design': constraint: the first frequency keeps this margin from every k/rev "
+                "(k = 1 ... &resonance harmonics) at the operating speed (&resonance operating_rpm or the "
+                "deck's rotor speed), within the gap between harmonics where it starts; default: none"))
+    add(Key("design", "method", "str", default="slsqp", choices=("slsqp", "trust-constr"),
+            doc="analysis = 'design': scipy.optimize.minimize method (SLSQP, Kraft 1988; or trust-constr)"))
+    add(Key("design", "max_iterations", "int", default=100, low=1, high=10000,
+            doc="analysis = 'design': iteration limit; a run that reaches it reports converged = false"))
+    add(Key("design", "tolerance", "real", default=1.0e-6, low=1.0e-12, high=0.1,
+            doc="analysis = 'design': convergence tolerance on the scaled problem (parameters mapped to "
+                "[0, 1], objective divided by its start value): SLSQP ftol, trust-constr gtol and xtol",
+            note="below 1e-12 the scaled objective is at round-off; above 0.1 nothing is optimised"))
     # &refinement ---------------------------------------------------------------------------
     add(Key("refinement", "levels", "int", default=1, low=1, high=4,
             doc="run n, 2n, 4n ... (levels runs, physical cable parameters) and extrapolate; 1 = off"))
@@ -379,7 +402,7 @@ GROUP_DOCS = {
     "drag": "aerodynamic drag by the cross-flow principle",
     "fatigue": "fatigue per joint: S-N (Basquin) curve, rainflow around the jacket, hotspots",
     "limits": "limits the results are judged against (flagged in the summary and report.html)",
-    "design": "design sensitivities: the deck keys the results are differentiated by",
+    "design": "design sensitivities (the deck keys the results are differentiated by) and the optimiser of analysis = 'design'",
     "refinement": "converged numbers: the same cable at n, 2n, 4n bodies and Richardson extrapolation",
     "output": "how the result files are written",
     "solver": "time integration, statics and output settings",

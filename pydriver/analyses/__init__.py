@@ -1,6 +1,6 @@
 """The analyses a deck can ask for, each on a :class:`~pydriver.model.Model`:
-static equilibrium, dynamic run, modal analysis (and, built on them, forward flight and the
-Campbell diagram).  :func:`run` dispatches on ``&case analysis``; modal, Campbell and
+static equilibrium, dynamic run, modal analysis (and, built on them, forward flight, the
+Campbell diagram and design optimisation).  :func:`run` dispatches on ``&case analysis``; modal, Campbell and
 flight runs end with their resonance margins (:mod:`pydriver.analyses.resonance`)."""
 
 from __future__ import annotations
@@ -13,7 +13,8 @@ def run(model, run_dir=None, restart=None):
     With ``&design parameters`` a static or modal run adds its design sensitivities
     (:mod:`pydriver.analyses.sensitivities`); the parameters are checked before the analysis."""
     from pydriver.analyses.sensitivities import attach_sensitivities, plan
-    plans = plan(model)
+    # A design run differentiates each of its evaluations itself (pydriver/analyses/optimiser.py).
+    plans = plan(model) if model.analysis != "design" else []
     if restart is not None:
         if model.deck["refinement.levels"] > 1:
             model.deck.fail("refinement", "levels", "--restart continues one run at one n: set levels = 1")
@@ -55,4 +56,7 @@ def run_single(model, run_dir=None):
         return result
     if analysis == "campbell":
         return campbell.campbell_analysis(model)
+    if analysis == "design":
+        from pydriver.analyses.optimiser import design_analysis
+        return design_analysis(model)
     model.deck.fail("case", "analysis", f"analysis '{analysis}' is not available in this version")

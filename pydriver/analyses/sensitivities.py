@@ -215,7 +215,9 @@ def modal_sensitivities(model, plans: list[Plan], q, lam) -> dict:
             d_ev = v @ (d_k - ev[k] * d_m) @ v / (v @ m0 @ v)          # Fox & Kapoor (1968)
             out.append(d_ev / (8.0 * np.pi**2 * freqs[k]))              # lambda = (2 pi f)^2
         values.append(np.asarray(out))
-    return _pack(plans, names, units, values, warnings)
+    sens = _pack(plans, names, units, values, warnings)
+    sens["values"] = {f"f{k + 1}_hz": float(freqs[k]) for k in keep}      # the optimiser's objective
+    return sens
 
 
 def _pack(plans, names, units, values, warnings) -> dict:
