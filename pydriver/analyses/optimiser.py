@@ -19,6 +19,7 @@ the first frequency in the gap between the forbidden bands k Omega (1 +- margin)
 from __future__ import annotations
 
 import time
+import warnings
 
 import numpy as np
 
@@ -211,9 +212,13 @@ def design_analysis(model) -> Result:
     else:
         cons = [NonlinearConstraint(lambda z: constraint_rows(z)[0], 0.0, np.inf,
                                     jac=lambda z: constraint_rows(z)[1], hess=BFGS())]
-        res = minimize(objective, z0, jac=True, hess=BFGS(), method="trust-constr", bounds=bounds,
-                       constraints=cons if n_cons else (), callback=callback,
-                       options={"maxiter": prob.max_iterations, "gtol": prob.tolerance, "xtol": prob.tolerance})
+        with warnings.catch_warnings():
+            # BFGS skips its update when a step leaves the gradient unchanged (at the optimum): not a fault.
+            warnings.filterwarnings("ignore", message="delta_grad == 0.0", category=UserWarning)
+            res = minimize(objective, z0, jac=True, hess=BFGS(), method="trust-constr", bounds=bounds,
+                           constraints=cons if n_cons else (), callback=callback,
+                           options={"maxiter": prob.max_iterations, "gtol": prob.tolerance,
+                                    "xtol": prob.tolerance})
     p_opt = p_of(res.x)
     ev_opt = evaluate(p_opt)
     record(res.x)
@@ -222,7 +227,7 @@ def design_analysis(model) -> Result:
     optimum_model = evaluate.model_at(p_opt)
     optimum = run_single(optimum_model)
     block = _summary_block(prob, res, ev0, ev_opt, evaluate.runs, int(getattr(res, "nit", len(history) - 1)))
-    warnings = list(optimum.summary.get("warnings", []))
+    notes = list(optimum.summary.get("warnings", []))
     if speeds:
         block["frequency_margin"] = {
             "required_percent": prob.frequency_margin_percent, "operating_rpm": speeds, "harmonics": harmonics,
@@ -233,19 +238,19 @@ def design_analysis(model) -> Result:
         block["frequency_margin"]["satisfied"] = bool(met)
         if not met:
             block["converged"] = False
-            warnings.append(f"design: the first frequency {ev_opt.value('f1_hz'):.4g} Hz at the last design is "
+            notes.append(f"design: the first frequency {ev_opt.value('f1_hz'):.4g} Hz at the last design is "
                             f"only {margin_percent(ev_opt):.2f} % from a rotor harmonic, less than the required "
                             f"{prob.frequency_margin_percent:g} % (&design frequency_margin_percent)")
     if not res.success:
-        warnings.append(f"design: the optimiser ({prob.method}) did not converge in {block['iterations']} "
+        notes.append(f"design: the optimiser ({prob.method}) did not converge in {block['iterations']} "
                         f"iterations ({block['message']}): optimum.nml holds its last design, which is not "
                         "shown to be an optimum (&design max_iterations, tolerance)")
     summary = dict(optimum.summary)
     summary.update(analysis="design", base_analysis=prob.base_analysis, design=block,
                    wall_time_s=time.perf_counter() - t0)
     summary.pop("warnings", None)
-    if warnings:
-        summary["warnings"] = warnings
+    if notes:
+        summary["warnings"] = notes
     header = (f"The optimum of design deck '{model.name}' (rotorcable, analysis = 'design'): objective "
               f"{prob.objective.name} = {block['objective']['optimum']:.10g} {prob.objective.unit}, converged: "
               f"{str(block['converged']).lower()}.\nA plain {prob.base_analysis} deck: rotorcable run optimum.nml")
