@@ -128,6 +128,14 @@ COLUMNS = [
     Column(("sensitivities.csv",), "value", "*", "d(output)/d(parameter) at the run's equilibrium (unit in the "
                                                  "unit column; per degree for angle keys)"),
     Column(("sensitivities.csv",), "unit", "-", "the unit of value: the output's unit over the parameter's"),
+    # -- design optimisation (analysis = 'design') ---------------------------------------------------------
+    Column(("design_history.csv",), "iteration", "-", "0: the deck's design; then one row per optimiser iteration"),
+    Column(("design_history.csv",), "{group}.{key}", "*", "a &design parameter's value (its unit from "
+                                                         "docs/deck_reference.md)"),
+    Column(("design_history.csv",), "objective", "*", "the &design objective (N or Nm or Hz, by the objective)"),
+    Column(("design_history.csv",), "f1_hz", "Hz", "first undamped frequency (with frequency_margin_percent)"),
+    Column(("design_history.csv",), "frequency_margin_percent", "%",
+           "the first frequency's least margin from k/rev, k = 1 ... harmonics, at the operating speed(s)"),
     # -- refinement ----------------------------------------------------------------------------------------
     Column(("refinement.csv",), "quantity", "-", "what is extrapolated (its unit in the column unit)"),
     Column(("refinement.csv",), "unit", "-", "the quantity's unit"),
