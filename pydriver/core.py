@@ -169,6 +169,20 @@ class CoreModel:
                          (int(x) for x in st)))
         return q, lam[:self.nc].copy(), stats
 
+    def static_system(self, q, lam, t: float = 0.0, jacobian: bool = False) -> dict:
+        """The static equilibrium equations at the state (q, lambda), nothing solved:
+        ``residual`` -k(q, 0) - G^T lambda (nq) [Nm] and ``g`` (nc); with ``jacobian`` also the
+        tangent stiffness ``K`` = d residual/dq at fixed lambda (nq, nq) and ``G`` (nc, nq)."""
+        lam_in = np.zeros(max(self.nc, 1))
+        lam_in[:self.nc] = lam
+        res, g, k_tan, g_jac, stat, key, msg = _api.rc_static_system(
+            self.handle, float(t), _reals(q), lam_in, int(jacobian))
+        _raise(self.deck, stat, key, msg)
+        out = {"residual": res, "g": g[:self.nc].copy()}
+        if jacobian:
+            out.update(K=k_tan, G=g_jac[:self.nc].copy())
+        return out
+
     def modal(self, q, lam, t: float = 0.0) -> dict:
         """Modal analysis about (q, lambda): frequencies, damping, mode shapes in q."""
         lam_in = np.zeros(max(self.nc, 1))

@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 
+from pydriver import design, design_problem
 from pydriver.deckfile import Deck
 
 #: Largest number of output samples of one run.  At one sample per 1e-4 s this is a week of
@@ -42,6 +43,8 @@ def check(deck: Deck) -> None:
     _limits(deck)
     _refinement(deck)
     _memory_budget(deck)
+    design.parameters(deck)           # &design parameters: names, differentiable keys, analysis
+    design_problem.problem(deck)      # analysis = 'design': objective, bounds, constraint, settings
 
 
 def _one_of(deck: Deck, keys: list[str], what: str):

@@ -518,3 +518,25 @@ def _nml_value(v) -> str:
     if isinstance(v, str):
         return "'" + v.replace("'", "''") + "'"
     return repr(v)
+
+
+def deck_text(deck: Deck, header: str = "") -> str:
+    """A deck as a plain namelist text that reads back to the same values: the keys it sets, in
+    their groups (a key the deck set by element, ``a(3) = ...``, written whole).  ``header``
+    becomes comment lines at the top (why the deck was written, by what)."""
+    nml = f90nml.Namelist()
+    for group in (g for g in GROUPS if g in deck.raw):
+        body = f90nml.Namelist()
+        for key, value in deck.raw[group].items():
+            if key in deck.starts.get(group, {}):
+                value = deck[f"{group}.{key}"]
+            if isinstance(value, np.ndarray):
+                value = value.tolist()
+            body[key] = value
+        nml[group] = body
+    out = io.StringIO()
+    for line in header.splitlines():
+        out.write(f"! {line}\n")
+    nml.uppercase = False
+    nml.write(out)
+    return out.getvalue()

@@ -151,6 +151,9 @@ def write_files(result, run_dir: RunDirectory, plots: bool = False, table_langua
     for name, columns in result.extra.get("tables", {}).items():
         _write_csv(run_dir.path(name), columns, units=units.get(name))
         result.files[name] = run_dir.out / name
+    for name, text in result.extra.get("texts", {}).items():       # a written deck (optimum.nml)
+        run_dir.path(name).write_text(text, encoding="utf-8")
+        result.files[name] = run_dir.out / name
     if plots:
         from pydriver.plots import plot_result
         for name in plot_result(result, run_dir.tmp):

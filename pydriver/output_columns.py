@@ -120,6 +120,22 @@ COLUMNS = [
     Column(FAT, "n_cycles", "-", "rainflow cycles per record (half cycles count 1/2)"),
     Column(FAT, "del_amplitude", "*", "damage-equivalent amplitude (unit of &fatigue sn_quantity)"),
     Column(FAT, "{q}_{s}", "*", "statistic s (min, max, mean, amplitude) of load q over the record"),
+    # -- design sensitivities ------------------------------------------------------------------------
+    Column(("sensitivities.csv",), "output", "-",
+           "the output differentiated: a reaction FA_x ... MB_z and a joint load axial{j}_N, shear{j}_N, "
+           "bending{j}_Nm, torsion{j}_Nm (static runs), or an undamped frequency f{k}_hz (modal runs)"),
+    Column(("sensitivities.csv",), "parameter", "-", "the &design parameter, group.key or group.key(i)"),
+    Column(("sensitivities.csv",), "value", "*", "d(output)/d(parameter) at the run's equilibrium (unit in the "
+                                                 "unit column; per degree for angle keys)"),
+    Column(("sensitivities.csv",), "unit", "-", "the unit of value: the output's unit over the parameter's"),
+    # -- design optimisation (analysis = 'design') ---------------------------------------------------------
+    Column(("design_history.csv",), "iteration", "-", "0: the deck's design; then one row per optimiser iteration"),
+    Column(("design_history.csv",), "{group}.{key}", "*", "a &design parameter's value (its unit from "
+                                                         "docs/deck_reference.md)"),
+    Column(("design_history.csv",), "objective", "*", "the &design objective (N or Nm or Hz, by the objective)"),
+    Column(("design_history.csv",), "f1_hz", "Hz", "first undamped frequency (with frequency_margin_percent)"),
+    Column(("design_history.csv",), "frequency_margin_percent", "%",
+           "the first frequency's least margin from k/rev, k = 1 ... harmonics, at the operating speed(s)"),
     # -- refinement ----------------------------------------------------------------------------------------
     Column(("refinement.csv",), "quantity", "-", "what is extrapolated (its unit in the column unit)"),
     Column(("refinement.csv",), "unit", "-", "the quantity's unit"),
@@ -204,7 +220,7 @@ def outputs_markdown() -> str:
              "`pydriver.load_results` and `pydriver.output.read_csv` give the columns by their bare names "
              "(`FA_x`), as before units were added.  `{j}` is a joint or body number (from clamp A), `{k}` a "
              "mode, `{n}` a number of bodies, `{c}` one of x, y, z, `{a}` one of x, y, `{s}` a support, A or B. "
-             "A unit `*` depends on the deck (the S-N curve's quantity) or on the row (refinement.csv's `unit`). "
+             "A unit `*` depends on the deck (the S-N curve's quantity) or on the row (refinement.csv's and sensitivities.csv's `unit`). "
              "`timeseries.h5` (large runs, or `&solver output_format = 'hdf5'`) is netCDF4: "
              "`xarray.open_dataset(path, engine='h5netcdf')` opens it with dimensions time, body, joint, "
              "component and bending_axis; the columns below are grouped into variables `cm`, `F_A`, `M_A`, `F_B`, "

@@ -64,7 +64,9 @@ def _cell(v) -> str:
     if isinstance(v, (float, np.floating)):
         return _num(float(v))
     if isinstance(v, np.ndarray):
-        return ", ".join(_num(float(x)) for x in v.ravel()[:12]) + (" ..." if v.size > 12 else "")
+        # A list of names (&design parameters) is shown as names, numbers in the short number form.
+        items = [x if isinstance(x, str) else _num(float(x)) for x in v.ravel()[:12]]
+        return ", ".join(items) + (" ..." if v.size > 12 else "")
     return str(v)
 
 
@@ -129,6 +131,8 @@ def html_report(result, model=None, timeseries_path=None) -> str:
         parts.append("<h2>Shape and loads per body and joint</h2><p>Angles of the thesis (γ, β), centre of "
                      "mass, and the loads joint j carries (tension positive).</p>"
                      + _table(cols, [[t[c][i] for c in cols] for i in range(len(t["body"]))]))
+    if "design" in s:
+        parts.append(_design_section(s["design"]))
     if s["analysis"] == "modal":
         rows = [[i + 1, fu, fd, z] for i, (fu, fd, z) in enumerate(zip(s["frequencies_hz"], s["damped_frequencies_hz"],
                                                                         s["damping_ratios"]))][:12]
@@ -227,3 +231,24 @@ def _resonance_section(block: dict) -> str:
         return text + "<p>No mode below the highest harmonic.</p>"
     return text + _table(["mode", "rpm", "f [Hz]", "error [Hz]", "nearest", "harmonic [Hz]", "margin [%]",
                           "verdict"], rows)
+
+
+def _design_section(d: dict) -> str:
+    """Before and after of a design optimisation: the objective, the parameters and the frequency
+    margin at the deck's start and at the optimum (the tables above are the optimum's)."""
+    o = d["objective"]
+    rows = [[f"objective {o['name']} [{o['unit']}]", o["start"], o["optimum"], "", ""]]
+    rows += [[f"{name} [{p['unit']}]", p["start"], p["optimum"], f"[{_num(p['lower'])}, {_num(p['upper'])}]",
+              p["at_bound"] or ""] for name, p in d["parameters"].items()]
+    if "frequency_margin" in d:
+        f = d["frequency_margin"]
+        rows.append(["first frequency [Hz]", f["start"]["f1_hz"], f["optimum"]["f1_hz"], "", ""])
+        rows.append(["margin from k/rev [%]", f["start"]["margin_percent"], f["optimum"]["margin_percent"],
+                     f">= {f['required_percent']:g}", "met" if f["satisfied"] else "NOT MET"])
+    verdict = ("converged" if d["converged"] else "<b>not converged</b>: the optimum is the last design, not a "
+               "proven optimum")
+    return (f"<h2>Design optimisation: before and after</h2><p>{html.escape(o['doc'])}, minimised by "
+            f"{d['method']} with exact gradients in {d['iterations']} iterations ({d['runs']} runs): {verdict} "
+            f"({html.escape(d['message'])}).  The results above are those of the optimum "
+            "(<code>optimum.nml</code>).</p>"
+            + _table(["", "start", "optimum", "bounds", "note"], rows, left={0, 3, 4}))

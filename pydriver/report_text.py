@@ -50,6 +50,19 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
         fd = ", ".join(_num(f, 4) for f in s["damped_frequencies_hz"][:6])
         lines.append(f"  natural frequencies [Hz]: {fu}")
         lines.append(f"  damped [Hz]:              {fd}")
+    if "design" in s:
+        d = s["design"]
+        o = d["objective"]
+        lines.append(f"  design: {o['name']} {_num(o['start'])} -> {_num(o['optimum'])} {o['unit']} "
+                     f"({d['method']}, {d['iterations']} iterations, {d['runs']} runs, "
+                     f"{'converged' if d['converged'] else 'NOT converged'}: {d['message']})")
+        for name, p in d["parameters"].items():
+            bound = f" (at the {p['at_bound']} bound)" if p["at_bound"] else ""
+            lines.append(f"    {name} [{p['unit']}]: {_num(p['start'])} -> {_num(p['optimum'])}{bound}")
+        if "frequency_margin" in d:
+            f = d["frequency_margin"]
+            lines.append(f"    first frequency {_num(f['start']['f1_hz'], 4)} -> {_num(f['optimum']['f1_hz'], 4)} Hz, "
+                         f"margin {f['optimum']['margin_percent']:.1f} % (required {f['required_percent']:g} %)")
     if "decay" in s and "f_damped_hz" in s["decay"]:
         d = s["decay"]
         lines.append(f"  decay test: {_num(d['f_damped_hz'], 5)} Hz damped"

@@ -41,6 +41,12 @@ class Key:
     broadcast: bool = True        #: a lone value on a 'body'/'joint' key sets every element
     tiny: float = 0.0             #: nonzero magnitudes below this are refused (0 = none, or >= tiny)
     note: str = ""                #: said with a range error: why the range is what it is
+    #: the static and modal results are smooth functions of it, so &design parameters may name
+    #: it (pydriver/design.py); keys that only start a run (shape, solver) or select a branch are not
+    differentiable: bool = False
+    #: the allowed values in words, for a key whose values a rule checks rather than a range
+    #: (the names of &design parameters: pydriver/design.py)
+    allowed: str = ""
 
     @property
     def is_array(self) -> bool:
@@ -48,6 +54,8 @@ class Key:
 
     def range_text(self) -> str:
         """The allowed values as a short text (for errors and the reference)."""
+        if self.allowed:
+            return self.allowed
         if self.choices:
             return " | ".join(f"'{c}'" for c in self.choices)
         if self.type not in ("real", "int"):
@@ -81,21 +89,22 @@ def _keys() -> list[Key]:
     add = k.append
     # &case --------------------------------------------------------------------------------
     add(Key("case", "name", "str", default="", doc="case name (summary, tables); default: the deck's file stem"))
-    add(Key("case", "analysis", "str", choices=("static", "dynamic", "modal", "flight", "campbell"),
+    add(Key("case", "analysis", "str", choices=("static", "dynamic", "modal", "flight", "campbell", "design"),
             doc="static equilibrium, dynamic run, modal analysis about the equilibrium, forward flight "
-                "to a periodic steady state, or Campbell diagram over rotor speed"))
+                "to a periodic steady state, Campbell diagram over rotor speed, or design optimisation "
+                "(&design; docs/model.md, \"Design optimisation\")"))
     add(Key("case", "description", "str", default="", doc="free text"))
     add(Key("case", "start", "str", default="shape", choices=("shape", "equilibrium"),
             doc="dynamic start: the deck's shape (made consistent) or at rest in the static equilibrium"))
     # &chain -------------------------------------------------------------------------------
     add(Key("chain", "n_bodies", "int", low=1, high=2000, doc="number of rigid bodies"))
-    add(Key("chain", "total_length", "real", unit="m", low=1.0e-6, high=1.0e3, doc="cable length, cut into equal bodies"))
+    add(Key("chain", "total_length", "real", unit="m", low=1.0e-6, high=1.0e3, doc="cable length, cut into equal bodies", differentiable=True))
     add(Key("chain", "body_length", "real", "body", "m", low=1.0e-6, high=1.0e3,
-            doc="length of each body (instead of total_length)"))
-    add(Key("chain", "diameter", "real", "body", "m", low=1.0e-6, high=10.0, doc="cable diameter (per body or one value)"))
-    add(Key("chain", "density", "real", unit="kg/m^3", low=1.0, high=1.0e5, doc="material density (mass = rho pi d^2/4 L)"))
-    add(Key("chain", "total_mass", "real", unit="kg", low=1.0e-9, high=1.0e6, doc="cable mass, shared by length"))
-    add(Key("chain", "body_mass", "real", "body", "kg", low=1.0e-9, high=1.0e6, doc="mass of each body (connectors, sleeves)"))
+            doc="length of each body (instead of total_length)", differentiable=True))
+    add(Key("chain", "diameter", "real", "body", "m", low=1.0e-6, high=10.0, doc="cable diameter (per body or one value)", differentiable=True))
+    add(Key("chain", "density", "real", unit="kg/m^3", low=1.0, high=1.0e5, doc="material density (mass = rho pi d^2/4 L)", differentiable=True))
+    add(Key("chain", "total_mass", "real", unit="kg", low=1.0e-9, high=1.0e6, doc="cable mass, shared by length", differentiable=True))
+    add(Key("chain", "body_mass", "real", "body", "kg", low=1.0e-9, high=1.0e6, doc="mass of each body (connectors, sleeves)", differentiable=True))
     add(Key("chain", "first_body", "str", default="clamped", choices=("clamped", "pivot"),
             doc="clamped: joint 1 locked at the start angles (thesis); pivot: joint 1 free at A"))
     add(Key("chain", "joint", "str", default="zy", choices=("zy", "xy", "xyz"),
@@ -110,52 +119,52 @@ def _keys() -> list[Key]:
     add(Key("shape", "gamma_rate_deg", "real", "body", "deg/s", default=0.0, low=-1.0e6, high=1.0e6, broadcast=False, doc="start rate of gamma (zy only)"))
     add(Key("shape", "beta_rate_deg", "real", "body", "deg/s", default=0.0, low=-1.0e6, high=1.0e6, broadcast=False, doc="start rate of beta (zy only)"))
     # &springs -----------------------------------------------------------------------------
-    add(Key("springs", "c_gamma", "real", "joint", "Nm/rad", 0.0, "torsion spring on gamma (zy)", **NONNEG, high=1.0e9))
-    add(Key("springs", "c_beta", "real", "joint", "Nm/rad", 0.0, "bending spring (beta; both Cardan angles)", **NONNEG, high=1.0e9))
-    add(Key("springs", "d_gamma", "real", "joint", "Nms/rad", 0.0, "damper on gamma (zy)", **NONNEG, high=1.0e9))
-    add(Key("springs", "d_beta", "real", "joint", "Nms/rad", 0.0, "bending damper", **NONNEG, high=1.0e9))
-    add(Key("springs", "c_twist", "real", "joint", "Nm/rad", None, "twist spring (xyz, required there)", **NONNEG, high=1.0e9))
-    add(Key("springs", "d_twist", "real", "joint", "Nms/rad", 0.0, "twist damper (xyz)", **NONNEG, high=1.0e9))
-    add(Key("springs", "rest_gamma_deg", "real", "joint", "deg", 0.0, "spring rest angle of gamma (zy)", low=-180.0, high=180.0, broadcast=False, note=ANGLE_NOTE))
-    add(Key("springs", "rest_beta_deg", "real", "joint", "deg", 0.0, "spring rest angle of beta (zy)", low=-180.0, high=180.0, broadcast=False, note=ANGLE_NOTE))
+    add(Key("springs", "c_gamma", "real", "joint", "Nm/rad", 0.0, "torsion spring on gamma (zy)", **NONNEG, high=1.0e9, differentiable=True))
+    add(Key("springs", "c_beta", "real", "joint", "Nm/rad", 0.0, "bending spring (beta; both Cardan angles)", **NONNEG, high=1.0e9, differentiable=True))
+    add(Key("springs", "d_gamma", "real", "joint", "Nms/rad", 0.0, "damper on gamma (zy)", **NONNEG, high=1.0e9, differentiable=True))
+    add(Key("springs", "d_beta", "real", "joint", "Nms/rad", 0.0, "bending damper", **NONNEG, high=1.0e9, differentiable=True))
+    add(Key("springs", "c_twist", "real", "joint", "Nm/rad", None, "twist spring (xyz, required there)", **NONNEG, high=1.0e9, differentiable=True))
+    add(Key("springs", "d_twist", "real", "joint", "Nms/rad", 0.0, "twist damper (xyz)", **NONNEG, high=1.0e9, differentiable=True))
+    add(Key("springs", "rest_gamma_deg", "real", "joint", "deg", 0.0, "spring rest angle of gamma (zy)", low=-180.0, high=180.0, broadcast=False, note=ANGLE_NOTE, differentiable=True))
+    add(Key("springs", "rest_beta_deg", "real", "joint", "deg", 0.0, "spring rest angle of beta (zy)", low=-180.0, high=180.0, broadcast=False, note=ANGLE_NOTE, differentiable=True))
     # &cable: physical parameters ----------------------------------------------------------
     add(Key("cable", "ei", "real", unit="N m^2", **POS, high=1.0e9,
-            doc="bending stiffness EI; joint springs c = EI/l, 2 EI/l at a joint on a clamp"))
-    add(Key("cable", "gj", "real", unit="N m^2", **POS, high=1.0e9, doc="torsional stiffness GJ (joint = 'xyz')"))
-    add(Key("cable", "mass_per_length", "real", unit="kg/m", low=1.0e-9, high=1.0e4, doc="mass per length (instead of &chain masses)"))
+            doc="bending stiffness EI; joint springs c = EI/l, 2 EI/l at a joint on a clamp", differentiable=True))
+    add(Key("cable", "gj", "real", unit="N m^2", **POS, high=1.0e9, doc="torsional stiffness GJ (joint = 'xyz')", differentiable=True))
+    add(Key("cable", "mass_per_length", "real", unit="kg/m", low=1.0e-9, high=1.0e4, doc="mass per length (instead of &chain masses)", differentiable=True))
     add(Key("cable", "spring_measure", "str", default="rotation_vector", choices=("rotation_vector", "joint_angles"),
             doc="joint = 'xyz': springs on the joint's rotation vector log R (converges at second order "
                 "in 1/n) or on its Cardan angles (first order in three dimensions)"))
     add(Key("cable", "damping_time", "real", unit="s", default=0.0, **NONNEG, high=1.0e3,
-            doc="structural damping, stiffness-proportional: d = damping_time * c at every joint"))
+            doc="structural damping, stiffness-proportional: d = damping_time * c at every joint", differentiable=True))
     # &clamp_a / &clamp_b ------------------------------------------------------------------
     add(Key("clamp_a", "gamma_deg", "real", unit="deg", default=0.0,
-            low=-360.0, high=360.0, doc="orientation of support A's frame (base of joint 1): thesis gamma"))
+            low=-360.0, high=360.0, doc="orientation of support A's frame (base of joint 1): thesis gamma", differentiable=True))
     add(Key("clamp_a", "beta_deg", "real", unit="deg", default=0.0,
-            low=-360.0, high=360.0, doc="orientation of support A's frame: thesis beta (90 = the clamp's axis along +x)"))
+            low=-360.0, high=360.0, doc="orientation of support A's frame: thesis beta (90 = the clamp's axis along +x)", differentiable=True))
     add(Key("clamp_a", "moves_with", "str", default="hub", choices=("hub", "blade"),
             doc="support A is fixed on the hub, or moves with the blade (&blade)"))
     add(Key("clamp_b", "active", "bool", default=False, doc="clamp B holds the last body (6 constraint rows)"))
     add(Key("clamp_b", "from_start", "bool", default=False, doc="take B's pose from the start shape"))
-    add(Key("clamp_b", "position", "real", "vec3", "m", low=-1.0e3, high=1.0e3, doc="clamp point p_B (end of the last body)"))
-    add(Key("clamp_b", "gamma_deg", "real", unit="deg", low=-360.0, high=360.0, doc="orientation of the last body, thesis gamma"))
-    add(Key("clamp_b", "beta_deg", "real", unit="deg", low=-360.0, high=360.0, doc="orientation of the last body, thesis beta"))
+    add(Key("clamp_b", "position", "real", "vec3", "m", low=-1.0e3, high=1.0e3, doc="clamp point p_B (end of the last body)", differentiable=True))
+    add(Key("clamp_b", "gamma_deg", "real", unit="deg", low=-360.0, high=360.0, doc="orientation of the last body, thesis gamma", differentiable=True))
+    add(Key("clamp_b", "beta_deg", "real", unit="deg", low=-360.0, high=360.0, doc="orientation of the last body, thesis beta", differentiable=True))
     add(Key("clamp_b", "moves_with", "str", default="hub", choices=("hub", "blade"),
             doc="clamp B is fixed on the hub, or moves with the blade (&blade)"))
     # &loads -------------------------------------------------------------------------------
-    add(Key("loads", "gravity", "real", "vec3", "m/s^2", (0.0, 0.0, -9.81), "gravitational acceleration", low=-1.0e3, high=1.0e3))
+    add(Key("loads", "gravity", "real", "vec3", "m/s^2", (0.0, 0.0, -9.81), "gravitational acceleration", low=-1.0e3, high=1.0e3, differentiable=True))
     add(Key("loads", "rotor_rpm", "real", unit="rpm", **NONNEG, high=1.0e5, tiny=1.0e-3,
-            doc="rotor speed about the deck's z axis (same as &rotor rpm; hub-frame run)"))
+            doc="rotor speed about the deck's z axis (same as &rotor rpm; hub-frame run)", differentiable=True))
     add(Key("loads", "rotor_offset", "real", "vec3", "m", (0.0, 0.0, 0.0), low=-1.0e3, high=1.0e3,
-            doc="deck origin (clamp A) relative to the rotor centre (x, y used)"))
+            doc="deck origin (clamp A) relative to the rotor centre (x, y used)", differentiable=True))
     add(Key("loads", "pulse_body", "int", default=0, low=0, high=2000, doc="body loaded by a force pulse (0 = none)"))
     add(Key("loads", "pulse_force", "real", "vec3", "N", (0.0, 0.0, 0.0), "pulse force at that body's CM", low=-1.0e9, high=1.0e9))
     add(Key("loads", "pulse_start", "real", unit="s", default=0.0, **NONNEG, high=1.0e7, doc="pulse start time"))
     add(Key("loads", "pulse_end", "real", unit="s", default=0.0, **NONNEG, high=1.0e7, doc="pulse end time"))
-    add(Key("loads", "tip_force", "real", "vec3", "N", (0.0, 0.0, 0.0), "constant force at a free tip", low=-1.0e9, high=1.0e9))
+    add(Key("loads", "tip_force", "real", "vec3", "N", (0.0, 0.0, 0.0), "constant force at a free tip", low=-1.0e9, high=1.0e9, differentiable=True))
     # &rotor -------------------------------------------------------------------------------
     add(Key("rotor", "rpm", "real", unit="rpm", **NONNEG, high=1.0e5, tiny=1.0e-3,
-            doc="rotor speed (constant profile), or the speed the run-up ends at"))
+            doc="rotor speed (constant profile), or the speed the run-up ends at", differentiable=True))
     add(Key("rotor", "profile", "str", default="constant", choices=("constant", "runup", "table"),
             doc="speed profile: constant, a smooth run-up from rpm_start to rpm, or a table"))
     add(Key("rotor", "rpm_start", "real", unit="rpm", default=0.0, **NONNEG, high=1.0e5, doc="run-up: speed before it"))
@@ -165,7 +174,7 @@ def _keys() -> list[Key]:
     add(Key("rotor", "table_t", "real", "list", "s", **NONNEG, high=1.0e7, doc="speed table: times (from 0, increasing)"))
     add(Key("rotor", "table_rpm", "real", "list", "rpm", **NONNEG, high=1.0e5, doc="speed table: speeds (cubic spline, held after)"))
     add(Key("rotor", "centre", "real", "vec3", "m",
-            low=-1.0e3, high=1.0e3, doc="rotor centre in the deck frame (axis = deck z); default: -rotor_offset of &loads"))
+            low=-1.0e3, high=1.0e3, doc="rotor centre in the deck frame (axis = deck z); default: -rotor_offset of &loads", differentiable=True))
     add(Key("rotor", "frame", "str", default="hub", choices=("hub", "inertial"),
             doc="equations in the hub frame turning with the rotor, or in the inertial frame with the "
                 "supports carried round"))
@@ -230,13 +239,13 @@ def _keys() -> list[Key]:
                 "modal) or &campbell operating_rpm"))
     # &drag --------------------------------------------------------------------------------
     add(Key("drag", "air_density", "real", unit="kg/m^3", default=1.225, low=1.0e-6, high=2.0e3,
-            doc="air density (ISA sea level by default)"))
+            doc="air density (ISA sea level by default)", differentiable=True))
     add(Key("drag", "cd", "real", "body", default=1.2, **NONNEG, high=100.0,
-            doc="cross-flow drag coefficient of the cylinder (1.2: subcritical Reynolds number)"))
+            doc="cross-flow drag coefficient of the cylinder (1.2: subcritical Reynolds number)", differentiable=True))
     add(Key("drag", "stream_velocity", "real", "vec3", "m/s", (0.0, 0.0, 0.0), low=-1.0e3, high=1.0e3,
-            doc="free-stream air velocity in the inertial frame"))
+            doc="free-stream air velocity in the inertial frame", differentiable=True))
     add(Key("drag", "forward_speed", "real", unit="m/s", default=0.0, **NONNEG, high=1.0e3,
-            doc="forward flight speed along the inertial +x axis (adds -V e_x to the stream)"))
+            doc="forward flight speed along the inertial +x axis (adds -V e_x to the stream)", differentiable=True))
     # &fatigue ------------------------------------------------------------------------------
     add(Key("fatigue", "sn_quantity", "str", default="strain", choices=("strain", "bending"),
             doc="what the S-N curve is written on: jacket surface strain [-] or bending moment [Nm]"))
@@ -279,6 +288,37 @@ def _keys() -> list[Key]:
             doc="required fatigue life in flight hours: a hotspot with a shorter life (&fatigue) is flagged in "
                 "the summary and report.html; default: none (the life is shown as not judged)",
             note="1e-3 h is 3.6 s, shorter than one recorded run; 1e9 h is 100 000 years"))
+    # &design ------------------------------------------------------------------------------
+    add(Key("design", "parameters", "str", "list",
+            doc="deck keys to differentiate the results by: 'group.key' (a scalar, or every element of a "
+                "per-body or per-joint key moved together) or 'group.key(i)' (element i); any key this "
+                "reference marks differentiable, at most 64; static runs write d(reactions and joint loads)/"
+                "d(parameter), modal runs d(frequency)/d(parameter) to sensitivities.csv (docs/model.md, "
+                "\"Design sensitivities\")",
+            allowed="1 ... 64 names of differentiable keys",
+            note="a name is a key of this reference marked differentiable, as group.key or group.key(i)"))
+    # The optimiser (analysis = 'design'; pydriver/design_problem.py, docs/model.md "Design optimisation").
+    add(Key("design", "objective", "str", choices=("max_reaction_force", "max_joint_moment", "neg_first_frequency"),
+            doc="analysis = 'design': what is minimised: the largest support force |F| of the equilibrium, the "
+                "largest joint moment sqrt(bending^2 + torsion^2), or minus the first undamped frequency"))
+    add(Key("design", "lower", "real", "list", "*", low=-1.0e9, high=1.0e9,
+            doc="analysis = 'design': lower bound of each parameter, in the order of parameters and in its unit "
+                "(degrees for an angle); the deck's value must lie within the bounds"))
+    add(Key("design", "upper", "real", "list", "*", low=-1.0e9, high=1.0e9,
+            doc="analysis = 'design': upper bound of each parameter (above its lower bound)"))
+    add(Key("design", "frequency_margin_percent", "real", unit="%", low=0.0, high=100.0, low_open=True,
+            high_open=True,
+            doc="analysis = 'design': constraint: the first frequency keeps this margin from every k/rev "
+                "(k = 1 ... &resonance harmonics) at the operating speed (&resonance operating_rpm or the "
+                "deck's rotor speed), within the gap between harmonics where it starts; default: none"))
+    add(Key("design", "method", "str", default="slsqp", choices=("slsqp", "trust-constr"),
+            doc="analysis = 'design': scipy.optimize.minimize method (SLSQP, Kraft 1988; or trust-constr)"))
+    add(Key("design", "max_iterations", "int", default=100, low=1, high=10000,
+            doc="analysis = 'design': iteration limit; a run that reaches it reports converged = false"))
+    add(Key("design", "tolerance", "real", default=1.0e-6, low=1.0e-12, high=0.1,
+            doc="analysis = 'design': convergence tolerance on the scaled problem (parameters mapped to "
+                "[0, 1], objective divided by its start value): SLSQP ftol, trust-constr gtol and xtol",
+            note="below 1e-12 the scaled objective is at round-off; above 0.1 nothing is optimised"))
     # &refinement ---------------------------------------------------------------------------
     add(Key("refinement", "levels", "int", default=1, low=1, high=4,
             doc="run n, 2n, 4n ... (levels runs, physical cable parameters) and extrapolate; 1 = off"))
@@ -362,6 +402,7 @@ GROUP_DOCS = {
     "drag": "aerodynamic drag by the cross-flow principle",
     "fatigue": "fatigue per joint: S-N (Basquin) curve, rainflow around the jacket, hotspots",
     "limits": "limits the results are judged against (flagged in the summary and report.html)",
+    "design": "design sensitivities (the deck keys the results are differentiated by) and the optimiser of analysis = 'design'",
     "refinement": "converged numbers: the same cable at n, 2n, 4n bodies and Richardson extrapolation",
     "output": "how the result files are written",
     "solver": "time integration, statics and output settings",
@@ -395,8 +436,9 @@ def reference_markdown() -> str:
             default = "—" if key.default is None else _default_text(key.default)
             allowed = key.range_text().replace("|", "or")        # a bare | would split the cell
             shape = key.shape + ("*" if not key.broadcast and key.shape in ("body", "joint") else "")
+            doc = key.doc + (" *Differentiable* (`&design parameters`)." if key.differentiable else "")
             lines.append(f"| `{key.name}` | {key.type} | {shape} | {key.unit} | {allowed} "
-                         f"| {default} | {key.doc} |")
+                         f"| {default} | {doc} |")
         lines.append("")
     return "\n".join(lines)
 

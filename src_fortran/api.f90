@@ -13,7 +13,7 @@ module rotorcable_api
                                        lookup_session, release_session
   use rotorcable_model_builder, only: build_chain, build_load, build_base, build_clamp, build_rotor, &
                                       build_finish, thesis_to_coordinates
-  use rotorcable_statics, only: static_settings, static_result, solve_static
+  use rotorcable_statics, only: static_settings, static_result, solve_static, static_system
   use rotorcable_modal, only: modal_analysis, reduced_matrices
   use rotorcable_dae_integrator, only: integrator_settings, settings_from_arrays, dae_session, session_start, session_advance
   use rotorcable_monodromy, only: monodromy_run
@@ -23,7 +23,7 @@ module rotorcable_api
   private
   public :: rc_model_new, rc_model_free, rc_model_add_load, rc_model_set_base, rc_model_set_clamp, &
             rc_model_set_rotor, rc_model_finish, rc_thesis_coordinates, rc_shape, rc_static, &
-            rc_modal, rc_modal_matrices, rc_dynamic_start, rc_dynamic_advance, rc_dynamic_free, rc_sample, &
+            rc_static_system, rc_modal, rc_modal_matrices, rc_dynamic_start, rc_dynamic_advance, rc_dynamic_free, rc_sample, &
             rc_monodromy
 
 contains
@@ -262,6 +262,35 @@ contains
     end if
     call report(error, stat, key, msg)
   end subroutine rc_static
+
+  !> The static equilibrium equations at a given state (q, lambda) at time t and, with
+  !> with_jacobian = 1, their Jacobian in (q, lambda): rotorcable_statics, static_system.  For the
+  !> design sensitivities (implicit function theorem at a converged equilibrium); nothing is solved.
+  subroutine rc_static_system(handle, t, nq, q, ncd, lambda, with_jacobian, res, g, k_tan, g_jac, stat, key, msg)
+    integer(c_int), intent(in) :: handle          !< model handle
+    real(c_double), intent(in) :: t               !< time [s]
+    integer(c_int), intent(in) :: nq, ncd         !< coordinates, max(1, nc)
+    real(c_double), intent(in) :: q(nq)           !< coordinates [rad]
+    real(c_double), intent(in) :: lambda(ncd)     !< multipliers
+    integer(c_int), intent(in) :: with_jacobian   !< 1: also K and G
+    real(c_double), intent(out) :: res(nq)        !< force residual -k(q,0) - G^T lambda [Nm]
+    real(c_double), intent(out) :: g(ncd)         !< constraint residual
+    real(c_double), intent(out) :: k_tan(nq, nq)  !< d res / dq at fixed lambda [Nm/rad]
+    real(c_double), intent(out) :: g_jac(ncd, nq) !< constraint Jacobian G
+    integer(c_int), intent(out) :: stat           !< status
+    character(len=64), intent(out) :: key         !< input at fault
+    character(len=1024), intent(out) :: msg       !< why
+    type(model_type), pointer :: model
+    type(error_type) :: error
+    res = 0.0_dp; g = 0.0_dp; k_tan = 0.0_dp; g_jac = 0.0_dp
+    model => model_of(handle, error)
+    if (error%code == 0) then
+      if (nq /= model%nq .or. ncd /= max(1, model%nc)) call fatal_error(error, 'rc_static_system: wrong sizes')
+    end if
+    if (error%code == 0) call static_system(model, t, q, lambda(1:model%nc), with_jacobian == 1, res, &
+                                            g(1:model%nc), k_tan, g_jac(1:model%nc, :))
+    call report(error, stat, key, msg)
+  end subroutine rc_static_system
 
   !> Modal analysis about an equilibrium (q, lambda) at time t.
   subroutine rc_modal(handle, t, nq, q, ncd, lambda, nf, f_undamped, f_damped, zeta, shapes, stat, key, msg)

@@ -10,7 +10,7 @@ module rotorcable_statics
   use rotorcable_linalg, only: solve_least_norm, null_space, solve_spd, solve_dense
   implicit none
   private
-  public :: static_settings, static_result, solve_static, tangent_stiffness, damping_matrix
+  public :: static_settings, static_result, solve_static, tangent_stiffness, damping_matrix, static_system
 
   !> Newton settings (from the deck's &solver group) and the time of the equilibrium (a
   !> moving support's pose, the rotor speed of a hub-frame run are taken at that time).
@@ -122,6 +122,33 @@ contains
       end do
     end do
   end subroutine rest_tangent
+
+  !> The equilibrium equations at a given state and their Jacobian, for the implicit function
+  !> theorem of the design sensitivities (pydriver/analyses/sensitivities.py): the residual
+  !> R = (-k(q,0) - G^T lambda, g) of eq. 3.50/3.51 at rest, and, when asked, its Jacobian in
+  !> (q, lambda), [[K, -G^T], [G, 0]], with K the tangent stiffness at fixed lambda
+  !> (rest_tangent, exact) and G the constraint Jacobian.  Nothing is solved.
+  subroutine static_system(model, t, q, lambda, with_jacobian, res, g, k_tan, g_jac)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: q(:)              !< coordinates [rad]
+    real(dp), intent(in) :: lambda(:)         !< multipliers (size nc)
+    logical, intent(in) :: with_jacobian      !< also form K and G
+    real(dp), intent(out) :: res(:)           !< (nq) force residual [Nm]
+    real(dp), intent(out) :: g(:)             !< (nc) constraint residual [m, rad]
+    real(dp), intent(out) :: k_tan(:, :)      !< (nq,nq) dres/dq at fixed lambda [Nm/rad] (if asked)
+    real(dp), intent(out) :: g_jac(:, :)      !< (nc,nq) G (if asked)
+    integer :: n_eval
+    n_eval = 0
+    k_tan = 0.0_dp
+    g_jac = 0.0_dp
+    g = 0.0_dp
+    call rest_forces(model, t, q, lambda, res, n_eval)
+    if (model%nc > 0) call constraint_residual(model, t, q, g)
+    if (.not. with_jacobian) return
+    call tangent_stiffness(model, t, q, lambda, k_tan, n_eval)
+    if (model%nc > 0) call constraint_jacobian(model, t, q, g_jac)
+  end subroutine static_system
 
   !> Multipliers by least squares (G^T lambda = f0), the equilibrium residual f0 - G^T lambda,
   !> the null-space basis of G and the reduced gradient N^T f0.

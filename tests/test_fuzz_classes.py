@@ -42,6 +42,17 @@ SHORT = {"solver": {"t_end": "0.02", "dt_out": "0.01", "max_steps": "20000", "ne
                     "floquet": ".false."}}
 
 
+#: Bad &design values (tests/test_design_sensitivities.py and tests/test_design_optimiser.py have the
+#: reasons): parameters, and the optimiser's keys (refused on any analysis but 'design', and on the
+#: design deck for their values: an unknown objective, a bound count or order, out-of-range settings).
+DESIGN_VALUES = [("parameters", v) for v in (
+    "'chain.lenght'", "'solver.rtol'", "1.0", "''", "'loads.gravity(9)'", "'shape.beta_deg'",
+    "'chain.total_length', 'chain.total_length'", "'loads.gravity'", ".true.")] + [
+    ("objective", "'least_mass'"), ("lower", "1.0"), ("upper", "-1.0e9, 2.0"),
+    ("frequency_margin_percent", "100.0"), ("method", "'newton'"), ("max_iterations", "0"),
+    ("tolerance", "-1.0")]
+
+
 def short_base(stem: str, tmp_path):
     changes = {g: dict(k) for g, k in SHORT.items()}
     deck = read_deck(INPUTS / f"{stem}.nml")
@@ -78,7 +89,7 @@ def mutations(stem: str, deck, rng):
     arrays = [(g, k) for g, k in given if GROUPS[g][k].is_array]
     ints = [(g, k) for g, keys in GROUPS.items() for k, key in keys.items()
             if key.type == "int" and (g in deck.groups or g == "solver")]
-    pairs = [(g, k) for g, k in given if GROUPS[g][k].shape in ("list", "vec3")
+    pairs = [(g, k) for g, k in given if GROUPS[g][k].shape in ("list", "vec3") and GROUPS[g][k].type != "str"
              and deck[f"{g}.{k}"] is not None and len(deck[f"{g}.{k}"]) >= 2]
     shapes = [(g, k) for g, keys in GROUPS.items() for k, key in keys.items()
               if not key.broadcast and (g in deck.groups)]
@@ -111,6 +122,12 @@ def mutations(stem: str, deck, rng):
         out.append(("malformed", g, k, str(rng.choice(["1.2.3", "1-70", "1e", "--1.0", "1.0e+", "2.5+1"]))))
     for g, k in pick(shapes):
         out.append(("scalar", g, k, str(rng.choice(["37.0", "-12.5", "90.0"]))))
+    # &design parameters (issue 24): names that are no key, no differentiable key, no element, no
+    # name at all; or any name on an analysis without sensitivities.  Their own generator, so that
+    # the draws of the other classes stay as they were.
+    for i in np.random.default_rng(sum(map(ord, stem))).choice(len(DESIGN_VALUES), 2, replace=False):
+        key, value = DESIGN_VALUES[i]
+        out.append(("design", "design", key, value))
     return out
 
 
@@ -157,6 +174,6 @@ def test_every_class_of_bad_input_fails_cleanly_or_runs_plausibly(tmp_path):
                 assert all(np.all(np.isfinite(np.asarray(v, float))) for v in cols.values()), (id_, name)
         for support in res.summary.get("reactions", {}).values():
             assert np.all(np.abs(support["F"]) < 1e6), (id_, support)
-    assert classes == {"int32", "repeat", "denormal", "reversed", "single", "malformed", "scalar"}
+    assert classes == {"int32", "repeat", "denormal", "reversed", "single", "malformed", "scalar", "design"}
     # Both outcomes occur (a corpus that only ever fails would prove little).
     assert outcomes["deck error"] > 100 and outcomes["ran"] > 10, outcomes

@@ -64,8 +64,9 @@ def test_fresh_venv_gives_the_whole_tool(tmp_path):
         return done.stdout
 
     assert run("--version").startswith("rotorcable ")
-    assert "copied 16 example decks" in run("examples", "ex")
-    assert "kept 16 already there" in run("examples", "ex")          # never overwrites
+    n_decks = len(list(INPUTS.glob("*.nml")))                         # every deck of inputs/ ships
+    assert f"copied {n_decks} example decks" in run("examples", "ex")
+    assert f"kept {n_decks} already there" in run("examples", "ex")  # never overwrites
     run("init", "mine.nml", "--like", "six_link_static")
     assert "a new deck" in (work / "mine.nml").read_text()
     text = run("run", "mine.nml", "--plots", "--report", "--out", "r1")

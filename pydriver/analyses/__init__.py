@@ -1,6 +1,6 @@
 """The analyses a deck can ask for, each on a :class:`~pydriver.model.Model`:
-static equilibrium, dynamic run, modal analysis (and, built on them, forward flight and the
-Campbell diagram).  :func:`run` dispatches on ``&case analysis``; modal, Campbell and
+static equilibrium, dynamic run, modal analysis (and, built on them, forward flight, the
+Campbell diagram and design optimisation).  :func:`run` dispatches on ``&case analysis``; modal, Campbell and
 flight runs end with their resonance margins (:mod:`pydriver.analyses.resonance`)."""
 
 from __future__ import annotations
@@ -9,7 +9,12 @@ from __future__ import annotations
 def run(model, run_dir=None, restart=None):
     """Run the deck's analysis; time series stream into ``run_dir`` (an output.RunDirectory).
     With ``&refinement levels > 1`` the analysis runs at n, 2n, 4n ... bodies
-    (:mod:`pydriver.analyses.refinement`).  ``restart`` (a checkpoint) continues a dynamic run."""
+    (:mod:`pydriver.analyses.refinement`).  ``restart`` (a checkpoint) continues a dynamic run.
+    With ``&design parameters`` a static or modal run adds its design sensitivities
+    (:mod:`pydriver.analyses.sensitivities`); the parameters are checked before the analysis."""
+    from pydriver.analyses.sensitivities import attach_sensitivities, plan
+    # A design run differentiates each of its evaluations itself (pydriver/analyses/optimiser.py).
+    plans = plan(model) if model.analysis != "design" else []
     if restart is not None:
         if model.deck["refinement.levels"] > 1:
             model.deck.fail("refinement", "levels", "--restart continues one run at one n: set levels = 1")
@@ -23,6 +28,7 @@ def run(model, run_dir=None, restart=None):
     if "fatigue" in model.deck.groups and model.analysis not in ("flight", "dynamic"):
         result.summary.setdefault("warnings", []).append(
             f"&fatigue is not evaluated: analysis '{model.analysis}' has no load history (flight or dynamic has)")
+    attach_sensitivities(model, result, plans)
     from pydriver.analyses.resonance import attach_margins
     attach_margins(model, result)
     from pydriver.analyses.limits import attach_limits
@@ -50,4 +56,7 @@ def run_single(model, run_dir=None):
         return result
     if analysis == "campbell":
         return campbell.campbell_analysis(model)
+    if analysis == "design":
+        from pydriver.analyses.optimiser import design_analysis
+        return design_analysis(model)
     model.deck.fail("case", "analysis", f"analysis '{analysis}' is not available in this version")

@@ -1,0 +1,260 @@
+"""Design sensitivities of a static or modal run (``&design parameters``; issue 24, first increment).
+
+Static runs: d(reactions)/dp and d(joint loads)/dp by the implicit function theorem at the
+converged equilibrium (docs/model.md, "Design sensitivities").  With x = (q, lambda) and the
+equilibrium equations R(x; p) = (-k(q, 0) - G^T lambda, g(q)) = 0 (eq. 3.50/3.51 at rest):
+
+    dx/dp = -(dR/dx)^-1 dR/dp,    dR/dx = [[K, -G^T], [G, 0]]
+
+with K the core's exact tangent stiffness at fixed lambda (rotorcable_statics, static_system).
+The explicit partial dR/dp is a central difference of the residual at the FIXED state x with
+the model rebuilt at p +- h (one residual each, no re-solve).  An output y(q, p) (the core's
+sample at rest) changes along the equilibrium's tangent, dy/dp = dy/dq dq/dp + dy/dp|_q, which is
+the derivative at s = 0 of y(q + s dq/dp, p + s): one central difference of y on the same two
+rebuilt models.  Both differences are O(h^2) (Nocedal & Wright, Numerical Optimization, eq. 8.9)
+with h = eps^(1/3) max(|p|, 1 unit) (pydriver.design.step): truncation and round-off are both
+~1e-11 relative.  At a range bound (a spring constant of 0) the difference is one-sided, the
+second-order three-point formula (ibid., forward-difference table; Fornberg 1988).
+
+Modal runs: d(frequency)/dp from the eigenvector formula (Fox & Kapoor, AIAA J. 6 (1968) 2426)
+
+    d lambda_k = phi_k^T (dK_r - lambda_k dM_r) phi_k / (phi_k^T M_r phi_k),   lambda_k = (2 pi f_k)^2,
+
+with dK_r, dM_r central differences of the reduced matrices along the equilibrium's tangent
+(x + s dx/dp, p + s), each in the basis P(s) N_0 (the null-space projector at s applied to the
+base basis N_0): the core's orthonormal basis may turn or flip a column between p - h and p + h,
+P(s) N_0 varies smoothly and the pencil's eigenvalues do not depend on the basis.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pydriver.analyses.common import REACTION_NAMES
+from pydriver.analyses.statics import unforced
+from pydriver.design import Parameter, parameters, ratio_unit, step
+from pydriver.errors import DeckError, RunError
+
+#: Loads of a static run's table (docs/outputs.md) whose sensitivities are reported, with units.
+JOINT_LOADS = (("axial", "N"), ("shear", "N"), ("bending", "Nm"), ("torsion", "Nm"))
+#: Modal runs: the sensitivities of the first this many undamped frequencies.
+N_FREQUENCIES = 6
+#: Two frequencies closer than this (relative) are one repeated eigenvalue, which has no derivative
+#: of its own (only the pair's mean has one): such modes are skipped with a warning.
+REPEATED_REL = 1.0e-6
+
+
+class Scheme:
+    """A difference formula: offsets s_i (in steps h) and weights, f'(0) = sum_i w_i f(s_i h) / h."""
+
+    CENTRAL = ((1.0, 0.5), (-1.0, -0.5))
+    FORWARD = ((0.0, -1.5), (1.0, 2.0), (2.0, -0.5))
+    BACKWARD = ((0.0, 1.5), (-1.0, -2.0), (-2.0, 0.5))
+
+
+class Plan:
+    """A parameter, its step and the models rebuilt at its offsets (None: the run's own model)."""
+
+    def __init__(self, parameter: Parameter, h: float, scheme: str, points: list):
+        self.parameter, self.h, self.scheme, self.points = parameter, h, scheme, points
+
+
+def plan(model) -> list[Plan]:
+    """The deck's parameters with their rebuilt models; raises the deck's error (naming
+    ``&design parameters``) for a parameter that cannot be varied about its value in this deck.
+    Called before the analysis, so that bad input is refused before any solve."""
+    out = []
+    for p in parameters(model.deck):
+        h = step(p)
+
+        def build(s):
+            if s == 0.0:
+                return None
+            return unforced(model.with_changes(p.changes(model.deck, p.value + s * h)))
+
+        models, errors = {}, {}
+        for s in (1.0, -1.0):
+            try:
+                models[s] = build(s)
+            except DeckError as err:
+                errors[s] = err
+        if not errors:
+            scheme, formula = "central", Scheme.CENTRAL
+        elif 1.0 in models:
+            scheme, formula = "forward", Scheme.FORWARD
+        elif -1.0 in models:
+            scheme, formula = "backward", Scheme.BACKWARD
+        else:
+            err = errors[1.0]
+            raise DeckError(model.name, "design", "parameters",
+                            f"'{p.name}' cannot be varied about its value {p.value:g} in this deck: "
+                            f"{err.group}.{err.key}: {err.reason}")
+        points = []
+        for s, w in formula:
+            if s not in models and s != 0.0:
+                try:
+                    models[s] = build(s)
+                except DeckError as err:
+                    raise DeckError(model.name, "design", "parameters",
+                                    f"'{p.name}' cannot be varied by {2 * h:g} on either side of "
+                                    f"{p.value:g}: {err.group}.{err.key}: {err.reason}") from None
+            points.append((s, w, models.get(s)))
+        out.append(Plan(p, h, scheme, points))
+    return out
+
+
+def static_outputs(model, q) -> tuple[np.ndarray, list, list]:
+    """The outputs of a static run at the state q: reactions and joint loads (values, names, units)."""
+    sample = model.core.sample([0.0], q[:, None], np.zeros((model.nq, 1)))
+    n_wrench = 12 if model.nc > 0 else 6
+    values = [sample["wrenches"][0][:n_wrench]]
+    names = list(REACTION_NAMES[:n_wrench])
+    units = ["N", "N", "N", "Nm", "Nm", "Nm"] * (n_wrench // 6)
+    for load, unit in JOINT_LOADS:
+        values.append(sample[load][0])
+        names += [f"{load}{j + 1}_{unit}" for j in range(model.n_bodies)]
+        units += [unit] * model.n_bodies
+    return np.concatenate(values), names, units
+
+
+def _tangents(model, plans: list[Plan], q, lam) -> list[np.ndarray]:
+    """dx/dp = -(dR/dx)^-1 dR/dp of every plan's parameter (implicit function theorem)."""
+    nq, nc = model.nq, model.nc
+    base = model.core.static_system(q, lam, jacobian=True)
+    jac = np.zeros((nq + nc, nq + nc))
+    jac[:nq, :nq] = base["K"]
+    if nc:
+        jac[:nq, nq:] = -base["G"].T
+        jac[nq:, :nq] = base["G"]
+    cond = np.linalg.cond(jac)
+    if not np.isfinite(cond) or cond > 1.0e13:
+        raise RunError(f"deck '{model.name}': the equilibrium is singular (condition number of the "
+                       f"static Jacobian {cond:.1e}): its sensitivities are not defined there")
+    r0 = np.concatenate([base["residual"], base["g"]])
+    out = []
+    for pl in plans:
+        d_r = np.zeros(nq + nc)
+        for _, w, m in pl.points:
+            if m is None:
+                d_r += w * r0
+            else:
+                s = m.core.static_system(q, lam)
+                d_r += w * np.concatenate([s["residual"], s["g"]])
+        out.append(-np.linalg.solve(jac, d_r / pl.h))
+    return out
+
+
+def static_sensitivities(model, plans: list[Plan], q, lam) -> dict:
+    """d(output)/dp of a static run's outputs at its equilibrium (q, lambda), every plan."""
+    model = unforced(model)
+    y0, names, units = static_outputs(model, q)
+    dx = _tangents(model, plans, q, lam)
+    values = []
+    for pl, x_p in zip(plans, dx):
+        dq = x_p[:model.nq]
+        dy = np.zeros_like(y0)
+        for s, w, m in pl.points:
+            dy += w * (y0 if m is None else static_outputs(m, q + s * pl.h * dq)[0])
+        values.append(dy / pl.h)
+    return _pack(plans, names, units, values, [])
+
+
+def _reduced(m, q, lam, n0) -> tuple[np.ndarray, np.ndarray]:
+    """K_r, M_r of model m at (q, lambda) in the basis P N_0 (P the projector onto its null space)."""
+    mm = m.core.modal_matrices(q, lam)
+    t = mm["basis"].T @ n0
+    return t.T @ mm["K_r"] @ t, t.T @ mm["M_r"] @ t
+
+
+def modal_sensitivities(model, plans: list[Plan], q, lam) -> dict:
+    """d(f_k)/dp of the first undamped frequencies of a modal run about its equilibrium."""
+    model = unforced(model)
+    mm = model.core.modal_matrices(q, lam)
+    n0 = mm["basis"]
+    k0, m0 = _reduced(model, q, lam, n0)
+    k0 = 0.5 * (k0 + k0.T)                 # the core's dsygv takes the symmetric part (rotorcable_modal)
+    # K_r phi = lambda M_r phi by Cholesky, M_r = L L^T: (L^-1 K_r L^-T) y = lambda y, phi = L^-T y;
+    # phi^T M_r phi = 1.
+    chol = np.linalg.cholesky(m0)
+    a = np.linalg.solve(chol, np.linalg.solve(chol, k0).T).T
+    ev, y = np.linalg.eigh(0.5 * (a + a.T))
+    phi = np.linalg.solve(chol.T, y)
+    count = min(N_FREQUENCIES, ev.size)
+    warnings = []
+    keep = []
+    for k in range(count):
+        if ev[k] <= 0.0:
+            warnings.append(f"mode {k + 1} has no positive stiffness: its frequency has no sensitivity")
+            continue
+        gaps = [abs(ev[k] - ev[i]) for i in (k - 1, k + 1) if 0 <= i < ev.size]
+        if gaps and min(gaps) < REPEATED_REL * abs(ev[k]):
+            warnings.append(f"mode {k + 1} is repeated: a repeated frequency has no derivative of its own")
+            continue
+        keep.append(k)
+    freqs = np.sqrt(np.maximum(ev, 0.0)) / (2.0 * np.pi)
+    names = [f"f{k + 1}_hz" for k in keep]
+    units = ["Hz"] * len(keep)
+    dx = _tangents(model, plans, q, lam)
+    values = []
+    for pl, x_p in zip(plans, dx):
+        d_k = np.zeros_like(k0)
+        d_m = np.zeros_like(m0)
+        for s, w, m in pl.points:
+            if m is None:
+                d_k += w * k0
+                d_m += w * m0
+            else:
+                ks, ms = _reduced(m, q + s * pl.h * x_p[:model.nq], lam + s * pl.h * x_p[model.nq:], n0)
+                d_k += w * 0.5 * (ks + ks.T)
+                d_m += w * ms
+        d_k /= pl.h
+        d_m /= pl.h
+        out = []
+        for k in keep:
+            v = phi[:, k]
+            d_ev = v @ (d_k - ev[k] * d_m) @ v / (v @ m0 @ v)          # Fox & Kapoor (1968)
+            out.append(d_ev / (8.0 * np.pi**2 * freqs[k]))              # lambda = (2 pi f)^2
+        values.append(np.asarray(out))
+    sens = _pack(plans, names, units, values, warnings)
+    sens["values"] = {f"f{k + 1}_hz": float(freqs[k]) for k in keep}      # the optimiser's objective
+    return sens
+
+
+def _pack(plans, names, units, values, warnings) -> dict:
+    """The summary entry and the rows of sensitivities.csv."""
+    rows = {"output": [], "parameter": [], "value": [], "unit": []}
+    table = {n: {} for n in names}
+    unit_table = {n: {} for n in names}
+    for pl, vals in zip(plans, values):
+        p = pl.parameter
+        for n, u, v in zip(names, units, vals):
+            unit = ratio_unit(u, p.unit)
+            rows["output"].append(n)
+            rows["parameter"].append(p.name)
+            rows["value"].append(float(v))
+            rows["unit"].append(unit)
+            table[n][p.name] = float(v)
+            unit_table[n][p.name] = unit
+    summary = {"method": "implicit function theorem at the equilibrium; parameter partials by differences "
+                         "of the rebuilt model at the fixed state (docs/model.md, \"Design sensitivities\")",
+               "parameters": {pl.parameter.name: {"value": pl.parameter.value, "unit": pl.parameter.unit,
+                                                   "step": pl.h, "difference": pl.scheme} for pl in plans},
+               "d_output_d_parameter": table, "units": unit_table}
+    return {"summary": summary, "rows": rows, "warnings": warnings}
+
+
+def attach_sensitivities(model, result, plans: list[Plan]) -> None:
+    """Add the sensitivities of a finished static or modal run to its result (summary and
+    ``sensitivities.csv``)."""
+    if not plans:
+        return
+    q, lam = result.extra["q"], result.extra["lambda"]
+    if model.analysis == "static":
+        sens = static_sensitivities(model, plans, q, lam)
+    else:
+        sens = modal_sensitivities(model, plans, q, lam)
+    result.summary["sensitivities"] = sens["summary"]
+    if sens["warnings"]:
+        result.summary.setdefault("warnings", []).extend(sens["warnings"])
+    result.extra.setdefault("tables", {})["sensitivities.csv"] = sens["rows"]
+    result.extra.setdefault("units", {})["sensitivities.csv"] = {"value": "*"}
