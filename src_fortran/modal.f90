@@ -49,9 +49,13 @@ contains
 
   !> The linearised equations on the constraint manifold: an orthonormal null-space basis N of
   !> G(q*) (LAPACK dgesvd), the full mass matrix and M_r = N^T M N, K_r = N^T K N, D_r = N^T D N.
-  !> M_r and K_r are made symmetric (round-off aside they are, for conservative loads); D_r keeps
-  !> its skew part, the gyroscopic (Coriolis) coupling of a turning frame that splits the modes
-  !> with the rotor speed.  A failed null space (a non-finite G, or dgesvd not converging)
+  !> M_r is made symmetric (it is, round-off aside).  K_r and D_r keep their skew parts: D_r's is
+  !> the gyroscopic (Coriolis) coupling of a turning frame that splits the modes with the rotor
+  !> speed; K_r's is the circulatory part of a follower load: the drag of the still air through
+  !> which a turning cable moves (6.4e-4 of K_r on the main job's cable in hover; 4e-16 with
+  !> cd = 0 or without rotation).  Symmetrising it away shifted the 16 Hz hover mode's eigenvalue
+  !> by 4.47e-3/s in its real part, the gap between Campbell and the Floquet exponents of the
+  !> time-domain model.  The undamped problem takes K_r's symmetric part (modal_analysis).  A failed null space (a non-finite G, or dgesvd not converging)
   !> is an error, and the matrices are then left zero.
   subroutine reduced_matrices(model, t, q, lambda, basis, m_full, m_r, k_r, d_r, error)
     type(model_type), intent(inout) :: model  !< model
@@ -86,7 +90,6 @@ contains
     k_r = matmul(transpose(basis), matmul(k_full, basis))
     d_r = matmul(transpose(basis), matmul(d_full, basis))
     m_r = 0.5_dp*(m_r + transpose(m_r))
-    k_r = 0.5_dp*(k_r + transpose(k_r))
   end subroutine reduced_matrices
 
   !> Natural frequencies, damped frequencies, damping ratios and mode shapes.
@@ -103,7 +106,7 @@ contains
     integer :: nq, nc, nf, info, i, k, best, lwork
     real(dp), allocatable :: basis(:, :), m_full(:, :)
     real(dp), allocatable :: m_r(:, :), k_r(:, :), d_r(:, :), a(:, :), b(:, :), w(:), work(:)
-    real(dp), allocatable :: ar(:), ai(:), vr(:, :), vl(:, :), z(:, :), w_raw(:), d_eta(:, :)
+    real(dp), allocatable :: ar(:), ai(:), vr(:, :), vl(:, :), z(:, :), w_raw(:), d_eta(:, :), k_skew(:, :)
     real(dp), allocatable :: norm_v(:)
     logical :: halting(3)
     real(dp) :: wq(1), mac, mac_best, omega, s_re, s_im, w_zero, num_r, num_i, den_x
@@ -116,8 +119,9 @@ contains
       call fatal_error(error, 'modal analysis: non-finite mass, stiffness or damping matrix')
       return
     end if
-    ! Undamped: K_r phi = w^2 M_r phi.
-    a = k_r; b = m_r
+    ! Undamped: sym(K_r) phi = w^2 M_r phi (the conservative part; the circulatory skew part of
+    ! K_r enters the damped system below, as the gyroscopic part of D_r does).
+    a = 0.5_dp*(k_r + transpose(k_r)); b = m_r
     allocate (w(nf))
     call fpe_pause(halting)
     call dsygv(1, 'V', 'U', nf, a, nf, b, nf, w, wq, -1, info)
@@ -142,12 +146,15 @@ contains
     f_undamped = sqrt(w)/TWO_PI
     shapes = matmul(basis, z)
 
-    ! Damped: first-order system of size 2 nf in the undamped modal coordinates.  Z^T K_r Z is
-    ! diag(w) to round-off (dsygv's own residual), so W is taken diagonal; D is not.
+    ! Damped: first-order system of size 2 nf in the undamped modal coordinates.  Z^T sym(K_r) Z
+    ! is diag(w) to round-off (dsygv's own residual), so it is taken diagonal; Z^T skew(K_r) Z
+    ! (circulatory) and D are not.
     deallocate (a, b, work)
     d_eta = matmul(transpose(z), matmul(d_r, z))
+    k_skew = matmul(transpose(z), matmul(0.5_dp*(k_r - transpose(k_r)), z))
     allocate (a(2*nf, 2*nf), ar(2*nf), ai(2*nf), vr(2*nf, 2*nf), vl(1, 1))
     a = 0.0_dp
+    a(nf + 1:, 1:nf) = -k_skew
     do i = 1, nf
       a(i, nf + i) = 1.0_dp
       a(nf + i, i) = -w_raw(i)
