@@ -9,6 +9,7 @@ as :class:`~pydriver.errors.RunError`.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import ctypes.util
 import os
@@ -144,6 +145,47 @@ class CoreModel:
         nq, nc, stat, key, msg = _api.rc_model_finish(self.handle)
         _raise(self.deck, stat, key, msg)
         self.nq, self.nc = int(nq), int(nc)
+
+    # -- updating (issue 23: a parameter change is a call, not a rebuild) --------------------
+    def update(self, name: str, value):
+        """Change the parameter ``name`` of the built model in place.
+
+        Parameters
+        ----------
+        name : str
+            ``'rotor.omega'`` (constant rotor speed [rad/s]), ``'loads.pulse'`` (1 on, 0 off),
+            ``'springs.stiffness'`` [Nm/rad] or ``'springs.damping'`` [Nms/rad] (one value per
+            coordinate, the layout of ``Model.description["stiffness"]``).
+        value : float or array_like
+
+        Raises
+        ------
+        RunError
+            Naming the parameter: a name no component of this model has, a value that does not
+            fit, or an integration of this model still open.
+        """
+        stat, key, msg = _api.rc_model_update(self.handle, name, _reals(value))
+        _raise(self.deck, stat, key, msg)
+
+    def parameter(self, name: str) -> np.ndarray:
+        """The current value(s) of the parameter ``name`` (see :meth:`update`)."""
+        values, count, stat, key, msg = _api.rc_model_parameter(self.handle, name, max(self.nq, 1))
+        _raise(self.deck, stat, key, msg)
+        return values[:int(count)].copy()
+
+    @contextlib.contextmanager
+    def updated(self, changes: dict):
+        """The model with ``changes`` ({name: value}, see :meth:`update`) for the duration of a
+        ``with`` block; every parameter gets its previous value back on leaving, also on an
+        exception.  Scopes nest (each restores what it found)."""
+        previous = {name: self.parameter(name) for name in changes}
+        try:
+            for name, value in changes.items():
+                self.update(name, value)
+            yield self
+        finally:
+            for name, value in previous.items():
+                self.update(name, value)
 
     # -- kinematics -----------------------------------------------------------------------
     def thesis_coordinates(self, gamma, beta, gamma_rate, beta_rate):

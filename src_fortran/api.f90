@@ -10,7 +10,8 @@ module rotorcable_api
   use rotorcable_errors, only: error_type, fatal_error
   use rotorcable_model, only: model_type, positions_at
   use rotorcable_model_registry, only: register_model, lookup_model, release_model, register_session, &
-                                       lookup_session, release_session
+                                       lookup_session, release_session, open_sessions
+  use rotorcable_model_update, only: update_parameter, parameter_value
   use rotorcable_model_builder, only: build_chain, build_load, build_base, build_clamp, build_rotor, &
                                       build_finish, thesis_to_coordinates
   use rotorcable_statics, only: static_settings, static_result, solve_static, static_system
@@ -24,7 +25,7 @@ module rotorcable_api
   public :: rc_model_new, rc_model_free, rc_model_add_load, rc_model_set_base, rc_model_set_clamp, &
             rc_model_set_rotor, rc_model_finish, rc_thesis_coordinates, rc_shape, rc_static, &
             rc_static_system, rc_modal, rc_modal_matrices, rc_dynamic_start, rc_dynamic_advance, rc_dynamic_free, rc_sample, &
-            rc_monodromy
+            rc_monodromy, rc_model_update, rc_model_parameter
 
 contains
 
@@ -172,6 +173,58 @@ contains
     end if
     call report(error, stat, key, msg)
   end subroutine rc_model_finish
+
+  !> Change a named parameter of a built model in place (rotorcable_model_update: rotor.omega,
+  !> loads.pulse, springs.stiffness, springs.damping).  Refused while a session integrates the
+  !> model.  An unknown name, or one the model has no component for, is a failed call (stat 2)
+  !> whose message names the parameter: the name comes from the program, not from a deck.
+  subroutine rc_model_update(handle, name, n, values, stat, key, msg)
+    integer(c_int), intent(in) :: handle          !< model handle
+    character(len=*), intent(in) :: name          !< parameter name
+    integer(c_int), intent(in) :: n               !< number of values
+    real(c_double), intent(in) :: values(n)       !< new value(s) [SI]
+    integer(c_int), intent(out) :: stat           !< status
+    character(len=64), intent(out) :: key         !< input at fault
+    character(len=1024), intent(out) :: msg       !< why
+    type(model_type), pointer :: model
+    type(error_type) :: error
+    character(len=160) :: buf
+    model => model_of(handle, error)
+    if (error%code == 0 .and. open_sessions(handle) > 0) then
+      write (buf, '(3a, i0, a)') 'model parameter ''', trim(name), ''': ', open_sessions(handle), &
+        ' integration(s) of this model are open; close them before updating it'
+      call fatal_error(error, trim(buf))
+    end if
+    if (error%code == 0) call update_parameter(model, trim(name), values, error)
+    call report(error, stat, key, msg)
+  end subroutine rc_model_update
+
+  !> The current value of a named parameter (values(1:count); nmax large enough: max(nq, 1)).
+  subroutine rc_model_parameter(handle, name, nmax, values, count, stat, key, msg)
+    integer(c_int), intent(in) :: handle          !< model handle
+    character(len=*), intent(in) :: name          !< parameter name
+    integer(c_int), intent(in) :: nmax            !< room in values
+    real(c_double), intent(out) :: values(nmax)   !< the value(s) [SI]
+    integer(c_int), intent(out) :: count          !< how many
+    integer(c_int), intent(out) :: stat           !< status
+    character(len=64), intent(out) :: key         !< input at fault
+    character(len=1024), intent(out) :: msg       !< why
+    type(model_type), pointer :: model
+    type(error_type) :: error
+    real(dp), allocatable :: found(:)
+    values = 0.0_dp; count = 0
+    model => model_of(handle, error)
+    if (error%code == 0) call parameter_value(model, trim(name), found, error)
+    if (error%code == 0) then
+      if (size(found) > nmax) then
+        call fatal_error(error, 'rc_model_parameter: too little room for '''//trim(name)//'''')
+      else
+        count = size(found)
+        values(1:count) = found
+      end if
+    end if
+    call report(error, stat, key, msg)
+  end subroutine rc_model_parameter
 
   !> An error unless the caller's sizes are the model's (explicit-shape arrays of another size
   !> would be read or written out of bounds).

@@ -10,7 +10,8 @@ module rotorcable_model_registry
   use rotorcable_dae_integrator, only: dae_session, session_end
   implicit none
   private
-  public :: register_model, lookup_model, release_model, register_session, lookup_session, release_session
+  public :: register_model, lookup_model, release_model, register_session, lookup_session, release_session, &
+            open_sessions
 
   type :: model_slot
     type(model_type), pointer :: model => null()
@@ -104,5 +105,17 @@ contains
     sessions(handle)%session => null()
     sessions(handle)%model_handle = 0
   end subroutine release_session
+
+  !> How many sessions are integrating the model `model_handle` (a model must not change under
+  !> a running integration: its switch times and iteration matrix were taken from the old one).
+  integer function open_sessions(model_handle) result(n)
+    integer, intent(in) :: model_handle       !< the model
+    integer :: i
+    n = 0
+    if (.not. allocated(sessions)) return
+    do i = 1, size(sessions)
+      if (associated(sessions(i)%session) .and. sessions(i)%model_handle == model_handle) n = n + 1
+    end do
+  end function open_sessions
 
 end module rotorcable_model_registry

@@ -23,6 +23,7 @@ import numpy as np
 from pydriver.analyses.common import base_summary
 from pydriver.analyses.statics import unforced, unforced_note
 from pydriver.errors import RunError
+from pydriver.motions import RPM
 from pydriver.result import Result
 from pydriver.richardson import richardson, richardson_two
 from pydriver.schema import lookup
@@ -41,11 +42,6 @@ SINGLE_SPEED_MARGIN = 0.05
 #: modal analysis (src_fortran/modal.f90: a coordinate without a spring and without a load
 #: across it).
 ZERO_STIFFNESS_REL = 1.0e-9
-
-
-def speed_key(model) -> str:
-    """The deck key that sets the rotor speed (the newer &rotor or the older &loads)."""
-    return "rotor.rpm" if "rotor" in model.deck.groups else "loads.rotor_rpm"
 
 
 # -- deck values ------------------------------------------------------------------------------
@@ -295,20 +291,28 @@ def non_oscillating_warnings(rpm: np.ndarray, freqs: np.ndarray, zero: np.ndarra
 
 
 def solve_speeds(model, rpm: np.ndarray) -> list[tuple]:
-    """Equilibrium and modes at every speed (continuation: each speed starts from the last)."""
+    """Equilibrium and modes at every speed (continuation: each speed starts from the last).
+
+    One model, its rotor speed changed in place from speed to speed (``CoreModel.updated``,
+    issue 23) and its force pulse off (:func:`unforced`); both are restored on return.  Building
+    a model per speed from the deck (the earlier way) gave the same numbers (tests/
+    test_model_update.py) and checked and assembled the deck at every speed.
+    """
     s = model.deck.values["solver"]
-    key = speed_key(model)
     q_prev, solved = None, []
-    for r in rpm:
-        m = model.with_changes({key: float(r), "case.analysis": "static"})
-        q, lam, _ = m.core.static(m.q0 if q_prev is None else q_prev, 0.0, s["newton_tol"], s["newton_max_iter"])
-        q_prev = q
-        mats = m.core.modal_matrices(q, lam)
-        try:
-            solved.append((mats, *complex_modes(mats)))
-        except np.linalg.LinAlgError as err:
-            raise RunError(f"deck '{model.name}': Campbell diagram at {r:.6g} rpm: the linearised equations "
-                           f"cannot be solved for their modes ({err}: the reduced mass matrix is singular)") from err
+    with unforced(model), model.core.updated({"rotor.omega": model.core.parameter("rotor.omega")}):
+        for r in rpm:
+            model.core.update("rotor.omega", float(r) * RPM)
+            q, lam, _ = model.core.static(model.q0 if q_prev is None else q_prev, 0.0, s["newton_tol"],
+                                          s["newton_max_iter"])
+            q_prev = q
+            mats = model.core.modal_matrices(q, lam)
+            try:
+                solved.append((mats, *complex_modes(mats)))
+            except np.linalg.LinAlgError as err:
+                raise RunError(f"deck '{model.name}': Campbell diagram at {r:.6g} rpm: the linearised equations "
+                               f"cannot be solved for their modes ({err}: the reduced mass matrix is singular)"
+                               ) from err
     return solved
 
 
@@ -316,7 +320,6 @@ def campbell_analysis(model) -> Result:
     """Frequencies of the tracked modes over the speed grid, and the crossings."""
     t_wall = time.perf_counter()
     notes = unforced_note(model)
-    model = unforced(model)
     c = model.deck.values["campbell"]
     n_modes = int(c["n_modes"])
     check_mode_count(model, n_modes)

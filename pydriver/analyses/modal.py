@@ -27,12 +27,12 @@ def modal_analysis(model) -> Result:
     """Frequencies, damping ratios and mode shapes about the equilibrium."""
     t0 = time.perf_counter()
     notes = unforced_note(model)
-    model = unforced(model)
-    q, lam, stats = equilibrium(model)
-    modes = model.core.modal(q, lam)
-    zero = np.zeros((model.nq, 1))
-    sample = model.core.sample([0.0], q[:, None], zero)
-    cm_shapes = cm_mode_shapes(model, q, modes["shapes"])
+    with unforced(model):
+        q, lam, stats = equilibrium(model)
+        modes = model.core.modal(q, lam)
+        zero = np.zeros((model.nq, 1))
+        sample = model.core.sample([0.0], q[:, None], zero)
+        cm_shapes = cm_mode_shapes(model, q, modes["shapes"])
     wall = time.perf_counter() - t0
     nf = model.nq - model.nc
     fu, fd, zeta = modes["f_undamped_hz"], modes["f_damped_hz"], modes["zeta"]

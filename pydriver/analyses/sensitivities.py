@@ -31,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from pydriver.analyses.common import REACTION_NAMES
-from pydriver.analyses.statics import unforced
+from pydriver.analyses.statics import drop_pulse, unforced
 from pydriver.design import Parameter, parameters, ratio_unit, step
 from pydriver.errors import DeckError, RunError
 
@@ -70,7 +70,7 @@ def plan(model) -> list[Plan]:
         def build(s):
             if s == 0.0:
                 return None
-            return unforced(model.with_changes(p.changes(model.deck, p.value + s * h)))
+            return drop_pulse(model.with_changes(p.changes(model.deck, p.value + s * h)))   # its own model
 
         models, errors = {}, {}
         for s in (1.0, -1.0):
@@ -146,7 +146,11 @@ def _tangents(model, plans: list[Plan], q, lam) -> list[np.ndarray]:
 
 def static_sensitivities(model, plans: list[Plan], q, lam) -> dict:
     """d(output)/dp of a static run's outputs at its equilibrium (q, lambda), every plan."""
-    model = unforced(model)
+    with unforced(model):
+        return _static_sensitivities(model, plans, q, lam)
+
+
+def _static_sensitivities(model, plans: list[Plan], q, lam) -> dict:
     y0, names, units = static_outputs(model, q)
     dx = _tangents(model, plans, q, lam)
     values = []
@@ -168,7 +172,11 @@ def _reduced(m, q, lam, n0) -> tuple[np.ndarray, np.ndarray]:
 
 def modal_sensitivities(model, plans: list[Plan], q, lam) -> dict:
     """d(f_k)/dp of the first undamped frequencies of a modal run about its equilibrium."""
-    model = unforced(model)
+    with unforced(model):
+        return _modal_sensitivities(model, plans, q, lam)
+
+
+def _modal_sensitivities(model, plans: list[Plan], q, lam) -> dict:
     mm = model.core.modal_matrices(q, lam)
     n0 = mm["basis"]
     k0, m0 = _reduced(model, q, lam, n0)

@@ -3,6 +3,7 @@ hover shape of thesis section 5.5)."""
 
 from __future__ import annotations
 
+import contextlib
 import time
 
 import numpy as np
@@ -13,18 +14,43 @@ from pydriver.errors import RunError
 from pydriver.result import Result
 
 
+def has_pulse(model) -> bool:
+    """Whether the deck puts a force pulse on the model (``&loads pulse_body``)."""
+    return model.deck["loads.pulse_body"] > 0
+
+
+@contextlib.contextmanager
 def unforced(model):
-    """The model without its force pulse: an equilibrium and its modes are those of the steady
-    loads; a pulse is a dynamic excitation (issue 20: a pulse active at t = 0 had moved the
-    six-link reaction from 75.1 N to 25.1 N and the UH-60 mode from 26.25 to 26.10 Hz)."""
-    if model.deck["loads.pulse_body"] > 0:
-        return model.with_changes({"loads.pulse_body": 0})
+    """The model without its force pulse for the duration of a ``with`` block: an equilibrium
+    and its modes are those of the steady loads; a pulse is a dynamic excitation (issue 20: a
+    pulse active at t = 0 had moved the six-link reaction from 75.1 N to 25.1 N and the UH-60
+    mode from 26.25 to 26.10 Hz).
+
+    The pulse is switched off in the core (``CoreModel.updated``, issue 23) and back on when the
+    block is left, also on an exception.  Scoped rather than for good because the model is the
+    caller's: a dynamic run finds its start equilibrium here and then integrates the same model
+    with its pulse, and a Model may be run again.  A rebuilt copy (the earlier way) cost a deck
+    check and an assembly per call and was a second model of one deck.  Scopes nest.
+    """
+    if not has_pulse(model):
+        yield model
+        return
+    with model.core.updated({"loads.pulse": 0.0}):
+        yield model
+
+
+def drop_pulse(model):
+    """``model`` with its force pulse switched off for good, returned; only for a model built for
+    one analysis that nobody else holds (the design sensitivities' and the optimiser's varied
+    models).  A model the caller keeps takes :func:`unforced`."""
+    if has_pulse(model):
+        model.core.update("loads.pulse", 0.0)
     return model
 
 
 def unforced_note(model) -> list[str]:
     """The summary note saying that a deck's pulse was left out (empty without a pulse)."""
-    if model.deck["loads.pulse_body"] > 0:
+    if has_pulse(model):
         return [f"the force pulse on body {int(model.deck['loads.pulse_body'])} (&loads) is a dynamic "
                 f"excitation: this {model.analysis} result is about the unforced state"]
     return []
@@ -44,21 +70,21 @@ def equilibrium(model, t: float = 0.0):
     stats : dict
         Solver statistics.
     """
-    model = unforced(model)
     s = model.deck.values["solver"]
-    if s["static_method"] == "newton":
-        return model.core.static(model.q0, t, s["newton_tol"], s["newton_max_iter"])
-    session = model.core.start(model.solver_settings(), t, model.q0, np.zeros_like(model.q0))
-    try:
-        q, v = session.advance([t + s["t_end"]])
-    finally:
-        session.close()
-    stats = dict(session.stats)
-    vmax = float(np.max(np.abs(v))) if v.size else 0.0
-    if vmax > s["settle_tol"]:
-        raise RunError(f"deck '{model.name}': dynamic settling: not at rest at t_end (max |qdot| = {vmax:.3e} "
-                       "rad/s > settle_tol); increase t_end")
-    sample = model.core.sample([t + s["t_end"]], q, np.zeros_like(q))
+    with unforced(model):
+        if s["static_method"] == "newton":
+            return model.core.static(model.q0, t, s["newton_tol"], s["newton_max_iter"])
+        session = model.core.start(model.solver_settings(), t, model.q0, np.zeros_like(model.q0))
+        try:
+            q, v = session.advance([t + s["t_end"]])
+        finally:
+            session.close()
+        stats = dict(session.stats)
+        vmax = float(np.max(np.abs(v))) if v.size else 0.0
+        if vmax > s["settle_tol"]:
+            raise RunError(f"deck '{model.name}': dynamic settling: not at rest at t_end (max |qdot| = {vmax:.3e} "
+                           "rad/s > settle_tol); increase t_end")
+        sample = model.core.sample([t + s["t_end"]], q, np.zeros_like(q))
     return q[:, 0], sample["lambda"][0], stats
 
 
@@ -66,10 +92,10 @@ def static_analysis(model) -> Result:
     """The equilibrium, its reactions, shape table and joint loads."""
     t0 = time.perf_counter()
     notes = unforced_note(model)
-    model = unforced(model)
-    q, lam, stats = equilibrium(model)
-    zero = np.zeros((model.nq, 1))
-    sample = model.core.sample([0.0], q[:, None], zero)
+    with unforced(model):
+        q, lam, stats = equilibrium(model)
+        zero = np.zeros((model.nq, 1))
+        sample = model.core.sample([0.0], q[:, None], zero)
     wall = time.perf_counter() - t0
     summary = base_summary(model, "static", wall)
     summary.update(solver=stats, max_constraint_violation_m=float(sample["g_max"][0]),

@@ -2,6 +2,7 @@
 !> torque pair along a joint axis does power only on that axis's own rate, so the spring
 !> moments project onto the coordinates diagonally: Q = -c (q - q_rest) - d qdot; potential
 !> sum c (q - q_rest)^2 / 2.  Parameters: reals = (c(1:nq), d(1:nq), q_rest(1:nq)).
+!> Updatable: 'springs.stiffness' c(1:nq), 'springs.damping' d(1:nq).
 module rotorcable_loads_joint_springs
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error
@@ -25,6 +26,8 @@ module rotorcable_loads_joint_springs
     procedure :: potential
     procedure :: has_potential
     procedure :: joint_diagonal
+    procedure :: set_parameter
+    procedure :: get_parameter
   end type joint_springs_load
 
 contains
@@ -90,5 +93,40 @@ contains
     stiffness = stiffness + self%stiffness
     damping = damping + self%damping
   end subroutine joint_diagonal
+
+  !> 'springs.stiffness' or 'springs.damping': one value per coordinate.
+  subroutine set_parameter(self, name, values, found, error)
+    class(joint_springs_load), intent(inout) :: self
+    character(len=*), intent(in) :: name
+    real(dp), intent(in) :: values(:)
+    logical, intent(out) :: found
+    type(error_type), intent(inout) :: error
+    found = name == 'springs.stiffness' .or. name == 'springs.damping'
+    if (.not. found) return
+    if (size(values) /= size(self%stiffness)) then
+      call fatal_error(error, 'model parameter '''//name//''' takes one value per coordinate')
+    else if (name == 'springs.stiffness') then
+      self%stiffness = values
+    else
+      self%damping = values
+    end if
+  end subroutine set_parameter
+
+  subroutine get_parameter(self, name, values, found)
+    class(joint_springs_load), intent(in) :: self
+    character(len=*), intent(in) :: name
+    real(dp), allocatable, intent(out) :: values(:)
+    logical, intent(out) :: found
+    found = .true.
+    select case (name)
+    case ('springs.stiffness')
+      values = self%stiffness
+    case ('springs.damping')
+      values = self%damping
+    case default
+      found = .false.
+      allocate (values(0))
+    end select
+  end subroutine get_parameter
 
 end module rotorcable_loads_joint_springs

@@ -1,6 +1,8 @@
 !> A rectangular force pulse on one body's centre of mass, thesis section 5.4 (decay test):
 !> the force acts for t_start <= t < t_end; the integrator stops at both edges.
 !> Parameters: ints = (body); reals = (F_x, F_y, F_z [N], t_start, t_end [s]).
+!> Updatable: 'loads.pulse' (1 on, 0 off).  A pulse switched off adds nothing and has no switch
+!> times, so the model is the one built without it (statics and modes of the steady loads).
 module rotorcable_loads_pulse
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error
@@ -19,10 +21,14 @@ module rotorcable_loads_pulse
     real(dp) :: force(3) = 0.0_dp             !< force [N]
     real(dp) :: t_start = 0.0_dp              !< start [s]
     real(dp) :: t_end = 0.0_dp                !< end [s]
+    logical :: enabled = .true.               !< switched on ('loads.pulse')
   contains
     procedure :: add_forces
     procedure :: add_force_tangent
     procedure :: switch_times
+    procedure :: has_potential
+    procedure :: set_parameter
+    procedure :: get_parameter
   end type pulse_load
 
 contains
@@ -62,6 +68,7 @@ contains
     type(frame_state), intent(in) :: fs
     real(dp), intent(in) :: t, q(:), v(:)
     real(dp), intent(inout) :: force(:, :), moment(:, :), tau(:)
+    if (.not. self%enabled) return
     if (t >= self%t_start .and. t < self%t_end) force(:, self%body) = force(:, self%body) + self%force
   end subroutine add_forces
 
@@ -79,7 +86,49 @@ contains
   pure subroutine switch_times(self, times)
     class(pulse_load), intent(in) :: self
     real(dp), allocatable, intent(out) :: times(:)
-    times = [self%t_start, self%t_end]
+    if (self%enabled) then
+      times = [self%t_start, self%t_end]
+    else
+      allocate (times(0))
+    end if
   end subroutine switch_times
+
+  !> A pulse switched off is conservative with potential 0 (load_term's default), so that a
+  !> model with its pulse off is, to the statics' merit function too, the model built without it.
+  pure logical function has_potential(self)
+    class(pulse_load), intent(in) :: self
+    has_potential = .not. self%enabled
+  end function has_potential
+
+  !> 'loads.pulse': 1 switches the pulse on, 0 off.
+  subroutine set_parameter(self, name, values, found, error)
+    class(pulse_load), intent(inout) :: self
+    character(len=*), intent(in) :: name
+    real(dp), intent(in) :: values(:)
+    logical, intent(out) :: found
+    type(error_type), intent(inout) :: error
+    found = name == 'loads.pulse'
+    if (.not. found) return
+    if (size(values) /= 1) then
+      call fatal_error(error, 'model parameter ''loads.pulse'' takes one value (1 on, 0 off)')
+    else if (values(1) /= 0.0_dp .and. values(1) /= 1.0_dp) then
+      call fatal_error(error, 'model parameter ''loads.pulse'' is 1 (on) or 0 (off)')
+    else
+      self%enabled = values(1) == 1.0_dp
+    end if
+  end subroutine set_parameter
+
+  subroutine get_parameter(self, name, values, found)
+    class(pulse_load), intent(in) :: self
+    character(len=*), intent(in) :: name
+    real(dp), allocatable, intent(out) :: values(:)
+    logical, intent(out) :: found
+    found = name == 'loads.pulse'
+    if (found) then
+      values = [merge(1.0_dp, 0.0_dp, self%enabled)]
+    else
+      allocate (values(0))
+    end if
+  end subroutine get_parameter
 
 end module rotorcable_loads_pulse

@@ -9,6 +9,7 @@
 !> iteration matrix can use exactly; rotorcable_chain_linear_solver).
 module rotorcable_loads_type
   use rotorcable_kinds, only: dp
+  use rotorcable_errors, only: error_type
   use rotorcable_chain, only: chain_type
   use rotorcable_kinematics, only: chain_state
   use rotorcable_kinematics_tangent, only: chain_tangent
@@ -35,6 +36,11 @@ module rotorcable_loads_type
     procedure :: switch_times => no_switch_times
     !> Constant diagonal joint-space stiffness and damping contributed by the load.
     procedure :: joint_diagonal => no_joint_diagonal
+    !> Change a named parameter in place (a model that updates instead of being rebuilt,
+    !> rotorcable_model_update); found = .false. if the load has no parameter of that name.
+    procedure :: set_parameter => no_set_parameter
+    !> The current value of a named parameter; found = .false. if the load has none of that name.
+    procedure :: get_parameter => no_get_parameter
   end type load_term
 
   !> Holder of one polymorphic load (an array of these is the model's load list).
@@ -100,5 +106,23 @@ contains
     real(dp), intent(inout) :: stiffness(:)   !< (nq) diagonal stiffness to add to [Nm/rad]
     real(dp), intent(inout) :: damping(:)     !< (nq) diagonal damping to add to [Nms/rad]
   end subroutine no_joint_diagonal
+
+  subroutine no_set_parameter(self, name, values, found, error)
+    class(load_term), intent(inout) :: self   !< the load
+    character(len=*), intent(in) :: name      !< parameter name, e.g. 'loads.pulse'
+    real(dp), intent(in) :: values(:)         !< its new value(s)
+    logical, intent(out) :: found             !< the load has this parameter
+    type(error_type), intent(inout) :: error  !< status (a value the load refuses)
+    found = .false.
+  end subroutine no_set_parameter
+
+  subroutine no_get_parameter(self, name, values, found)
+    class(load_term), intent(in) :: self      !< the load
+    character(len=*), intent(in) :: name      !< parameter name
+    real(dp), allocatable, intent(out) :: values(:)  !< its value(s)
+    logical, intent(out) :: found             !< the load has this parameter
+    allocate (values(0))
+    found = .false.
+  end subroutine no_get_parameter
 
 end module rotorcable_loads_type

@@ -14,6 +14,7 @@ module rotorcable_motion_rotor
   implicit none
   private
   public :: rotor_type, rotor_state, rotor_at, set_constant_speed, set_runup_speed, set_table_speed, rotor_free, &
+            change_constant_speed, &
             ROTOR_STILL, ROTOR_CONSTANT, ROTOR_RUNUP, ROTOR_TABLE
 
   integer, parameter :: ROTOR_STILL = 0, ROTOR_CONSTANT = 1, ROTOR_RUNUP = 2, ROTOR_TABLE = 3
@@ -22,6 +23,7 @@ module rotorcable_motion_rotor
   !> Rotor speed profile and centre.
   type :: rotor_type
     integer :: kind = ROTOR_STILL
+    logical :: given = .false.                !< a profile was set (a model may have no rotor)
     real(dp) :: centre(3) = 0.0_dp            !< rotor centre in the deck frame [m] (axis = deck z)
     real(dp) :: omega_0 = 0.0_dp              !< constant speed, or speed before the run-up [rad/s]
     real(dp) :: omega_1 = 0.0_dp              !< speed after the run-up [rad/s]
@@ -47,7 +49,24 @@ contains
     r%kind = merge(ROTOR_CONSTANT, ROTOR_STILL, omega /= 0.0_dp)
     r%omega_0 = omega
     r%centre = centre
+    r%given = .true.
   end subroutine set_constant_speed
+
+  !> A new constant speed for a rotor built with a constant one (the Campbell diagram's speed
+  !> steps); a run-up or a table has no single speed to change, and a model without a rotor
+  !> has no hub frame or centre for one.
+  subroutine change_constant_speed(r, omega, error)
+    type(rotor_type), intent(inout) :: r      !< rotor
+    real(dp), intent(in) :: omega             !< speed [rad/s]
+    type(error_type), intent(inout) :: error  !< status
+    if (.not. r%given) then
+      call fatal_error(error, 'the model has no rotor')
+    else if (r%kind /= ROTOR_CONSTANT .and. r%kind /= ROTOR_STILL) then
+      call fatal_error(error, 'the rotor''s speed profile is not constant (a run-up or a table)')
+    else
+      call set_constant_speed(r, omega, r%centre)
+    end if
+  end subroutine change_constant_speed
 
   !> A run-up from omega_0 to omega_1 between t_start and t_start + duration.
   subroutine set_runup_speed(r, omega_0, omega_1, t_start, duration, centre, error)
@@ -61,6 +80,7 @@ contains
       return
     end if
     r%kind = ROTOR_RUNUP
+    r%given = .true.
     r%omega_0 = omega_0; r%omega_1 = omega_1
     r%t_start = t_start; r%duration = duration
     r%centre = centre
@@ -73,6 +93,7 @@ contains
     real(dp), intent(in) :: centre(3)         !< rotor centre [m]
     type(error_type), intent(inout) :: error  !< status
     r%kind = ROTOR_TABLE
+    r%given = .true.
     r%centre = centre
     call spline_init(r%table, t, omega, error)
     if (error%code == 0 .and. t(1) > 0.0_dp) &
