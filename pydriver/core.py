@@ -46,10 +46,30 @@ class _FpeTrapped:
         return trapped
 
 
+class ProbesNotBuilt(RuntimeError):
+    """A test or benchmark probe was called in a build without them (-Dprobes=false, the default
+    of ``pip install .``)."""
+
+
+class _ProbesAbsent:
+    """Stands in for the probes module in a build without it (the product wheel): any probe
+    call raises, naming the build option that adds them."""
+
+    def __getattr__(self, name):
+        raise ProbesNotBuilt(
+            f"{name}: the test and benchmark probes are not in this build of rotorcable; rebuild with "
+            "the meson option probes on (pip install -Csetup-args=-Dprobes=true ..., as .ci/setup does)")
+
+
 _api = _rotorcable.rotorcable_api
-_probes = _rotorcable.rotorcable_probes
+#: The test and benchmark probes (src_fortran/probes.f90), built only with -Dprobes=true
+#: (meson.options); the run API and the analyses never need them.
+HAS_PROBES = hasattr(_rotorcable, "rotorcable_probes")
+_probes = _rotorcable.rotorcable_probes if HAS_PROBES else _ProbesAbsent()
 if os.environ.get("ROTORCABLE_FPE_TRAP") == "1":
-    _api, _probes = _FpeTrapped(_api), _FpeTrapped(_probes)
+    _api = _FpeTrapped(_api)
+    if HAS_PROBES:
+        _probes = _FpeTrapped(_probes)
 
 JOINT_KINDS = {"zy": 1, "xy": 2, "xyz": 3}
 ROTOR_PROFILES = {"constant": 1, "runup": 2, "table": 3}
@@ -287,7 +307,21 @@ class CoreModel:
                 "bend_xy": np.moveaxis(bend_xy, 2, 0), "psi": psi, "lambda": lam[:self.nc].T,
                 "support_velocities": sup.T}
 
-    # -- probes (tests and benchmarks) ----------------------------------------------------
+    def constraint_residual(self, q, t: float = 0.0) -> np.ndarray:
+        """The constraint residual g(q, t) (nc entries; clamp B: position rows, then rotation rows)."""
+        g, stat, key, msg = _api.rc_constraint_residual(self.handle, float(t), _reals(q), max(self.nc, 1))
+        _raise(self.deck, stat, key, msg)
+        return g[:self.nc].copy()
+
+    def consistent_start(self, q, v, t: float = 0.0) -> dict:
+        """The integrator's consistent start from (q, v) at t: ``q``, ``v`` projected onto the
+        constraints, ``vdot`` and ``lambda`` from eq. 3.55; no integration is started."""
+        q1, v1, vd, lam, stat, key, msg = _api.rc_consistent_start(self.handle, float(t), _reals(q), _reals(v),
+                                                                   max(self.nc, 1))
+        _raise(self.deck, stat, key, msg)
+        return {"q": q1, "v": v1, "vdot": vd, "lambda": lam[:self.nc].copy()}
+
+    # -- probes (tests and benchmarks; only in a build with -Dprobes=true, HAS_PROBES) -----
     def evaluate(self, q, v, vdot, lam, t: float = 0.0) -> dict:
         lam_in = np.zeros(max(self.nc, 1))
         lam_in[:self.nc] = lam

@@ -108,6 +108,9 @@ def evaluate_model(path, q, v=None, vdot=None, lam=None, t: float = 0.0) -> dict
     ``residual`` (M vdot - k - G^T lambda by inverse dynamics), ``g``, ``G``, ``Gdot_v`` (the
     acceleration bias, rheonomic terms included), ``G_v`` (G v + g_t), ``vdot``/``lambda`` of
     eq. 3.55, ``wrenches`` (F_A, M_A, F_B, M_B) and ``energy``.
+
+    A test probe: it needs a build with the meson option ``probes`` on (.ci/setup builds so) and
+    raises :class:`pydriver.core.ProbesNotBuilt` in the product wheel.
     """
     m = _model(path)
     nq = m.nq

@@ -79,7 +79,7 @@ def scene(path) -> Scene:
     inertia = np.column_stack([i_xx, i_xx, b.masses * b.radii**2 / 2.0])
     deck = m.deck
     q0, v0 = start_state(m)
-    y, _ = m.core.consistent_ggl_state(q0, v0)
+    start = m.core.consistent_start(q0, v0)
     nq = m.nq
     clamp = d["clamp"]
     rot = d["rotor"]
@@ -97,4 +97,4 @@ def scene(path) -> Scene:
                  pulse_body=int(deck["loads.pulse_body"]), pulse_force=np.asarray(deck["loads.pulse_force"], float),
                  pulse_window=np.array([deck["loads.pulse_start"], deck["loads.pulse_end"]]),
                  tip_force=np.asarray(deck["loads.tip_force"], float), t_end=float(deck["solver.t_end"]),
-                 q0=y[:nq].copy(), v0=y[nq:2 * nq].copy())
+                 q0=start["q"], v0=start["v"])

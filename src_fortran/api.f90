@@ -8,7 +8,7 @@ module rotorcable_api
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error
-  use rotorcable_model, only: model_type, positions_at
+  use rotorcable_model, only: model_type, positions_at, constraint_residual
   use rotorcable_model_registry, only: register_model, lookup_model, release_model, register_session, &
                                        lookup_session, release_session, open_sessions
   use rotorcable_model_update, only: update_parameter, parameter_value
@@ -16,7 +16,8 @@ module rotorcable_api
                                       build_finish, thesis_to_coordinates
   use rotorcable_statics, only: static_settings, static_result, solve_static, static_system
   use rotorcable_modal, only: modal_analysis, reduced_matrices
-  use rotorcable_dae_integrator, only: integrator_settings, settings_from_arrays, dae_session, session_start, session_advance
+  use rotorcable_dae_integrator, only: integrator_settings, settings_from_arrays, dae_session, session_start, &
+                                       session_advance, consistent_start
   use rotorcable_monodromy, only: monodromy_run
   use rotorcable_dae_integrator, only: solver_stats
   use rotorcable_sampling, only: sample_state, joint_loads, shape_of, support_motion
@@ -25,7 +26,7 @@ module rotorcable_api
   public :: rc_model_new, rc_model_free, rc_model_add_load, rc_model_set_base, rc_model_set_clamp, &
             rc_model_set_rotor, rc_model_finish, rc_thesis_coordinates, rc_shape, rc_static, &
             rc_static_system, rc_modal, rc_modal_matrices, rc_dynamic_start, rc_dynamic_advance, rc_dynamic_free, rc_sample, &
-            rc_monodromy, rc_model_update, rc_model_parameter
+            rc_monodromy, rc_model_update, rc_model_parameter, rc_constraint_residual, rc_consistent_start
 
 contains
 
@@ -545,5 +546,52 @@ contains
     end if
     call report(error, stat, key, msg)
   end subroutine rc_monodromy
+
+  !> The constraint residual g(q, t) of the supports (clamp B: position, then rotation rows;
+  !> src_fortran/supports/clamp.f90).  For clamp B's pose at any time (pydriver/analyses/clamp_reach.py).
+  subroutine rc_constraint_residual(handle, t, nq, q, ncd, g, stat, key, msg)
+    integer(c_int), intent(in) :: handle          !< model handle
+    real(c_double), intent(in) :: t               !< time [s]
+    integer(c_int), intent(in) :: nq, ncd         !< coordinates, max(1, nc)
+    real(c_double), intent(in) :: q(nq)           !< coordinates [rad]
+    real(c_double), intent(out) :: g(ncd)         !< g(q, t) (the first nc entries)
+    integer(c_int), intent(out) :: stat           !< status
+    character(len=64), intent(out) :: key         !< input at fault
+    character(len=1024), intent(out) :: msg       !< why
+    type(model_type), pointer :: model
+    type(error_type) :: error
+    g = 0.0_dp
+    model => model_of(handle, error)
+    if (error%code == 0) then
+      if (nq /= model%nq .or. ncd /= max(1, model%nc)) call fatal_error(error, 'rc_constraint_residual: wrong sizes')
+    end if
+    if (error%code == 0) call constraint_residual(model, t, q, g(1:model%nc))
+    call report(error, stat, key, msg)
+  end subroutine rc_constraint_residual
+
+  !> The consistent start from (q0, v0) at t, as the integrator makes it (positions projected
+  !> onto g = 0, velocities onto G v + g_t = 0, then eq. 3.55 for the accelerations and
+  !> multipliers), without starting an integration.  For the scene (pydriver/scene.py).
+  subroutine rc_consistent_start(handle, t, nq, q0, v0, ncd, q, v, vdot, lambda, stat, key, msg)
+    integer(c_int), intent(in) :: handle          !< model handle
+    real(c_double), intent(in) :: t               !< time [s]
+    integer(c_int), intent(in) :: nq, ncd         !< coordinates, max(1, nc)
+    real(c_double), intent(in) :: q0(nq), v0(nq)  !< start state [rad], [rad/s]
+    real(c_double), intent(out) :: q(nq), v(nq)   !< consistent start state
+    real(c_double), intent(out) :: vdot(nq)       !< consistent accelerations [rad/s^2]
+    real(c_double), intent(out) :: lambda(ncd)    !< consistent multipliers (the first nc entries)
+    integer(c_int), intent(out) :: stat           !< status
+    character(len=64), intent(out) :: key         !< input at fault
+    character(len=1024), intent(out) :: msg       !< why
+    type(model_type), pointer :: model
+    type(error_type) :: error
+    q = q0; v = v0; vdot = 0.0_dp; lambda = 0.0_dp
+    model => model_of(handle, error)
+    if (error%code == 0) then
+      if (nq /= model%nq .or. ncd /= max(1, model%nc)) call fatal_error(error, 'rc_consistent_start: wrong sizes')
+    end if
+    if (error%code == 0) call consistent_start(model, t, q, v, vdot, lambda(1:model%nc), error)
+    call report(error, stat, key, msg)
+  end subroutine rc_consistent_start
 
 end module rotorcable_api
