@@ -17,6 +17,9 @@ Cases: the UH-60 part 2 decay (1 s, rtol 1e-8), the six-link swing (2 s,
 rtol 1e-8) and the UH-60 cable cut into 80 bodies (0.05 s, rtol 1e-6, as in scaling.py).
 Median wall time of ``--repeat`` runs.  Writes benchmarks/results/before_after.csv and prints
 a Markdown table.  Run:  .venv/bin/python benchmarks/before_after.py   (about a minute)
+
+Needs the core's test and benchmark probes: a build with the meson option ``probes`` on
+(``bash .ci/setup``), not the product wheel (benchmarks/README.md).
 """
 
 from __future__ import annotations

@@ -28,6 +28,9 @@ Run:  .venv/bin/python benchmarks/flight_precision.py                 (n = 44, 1
       Exudyn's Python drag dominates; see README)
       .venv/bin/python benchmarks/flight_precision.py --n 11 --revolutions 1     (minutes)
       ... --set solver.linear_solver=chain   (deck override for the rotorcable runs)
+
+Needs the core's test and benchmark probes: a build with the meson option ``probes`` on
+(``bash .ci/setup``), not the product wheel (benchmarks/README.md).
 """
 
 from __future__ import annotations

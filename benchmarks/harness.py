@@ -1,6 +1,9 @@
 """What every benchmark measures the same way: one timed integration of a deck's model by
 the Fortran core (the integration alone: no deck reading, no start equilibrium, no outputs),
-and the check that the run did the work (steps taken, a finite answer)."""
+and the check that the run did the work (steps taken, a finite answer).
+
+The timed integration is a core probe (``CoreModel.integrate_timed``): it needs a build with the
+meson option ``probes`` on (``bash .ci/setup``), not the product wheel."""
 
 from __future__ import annotations
 
@@ -21,8 +24,8 @@ def prepared(deck_or_model):
     """(model, consistent q0, v0, t_end) of a deck, the start state as the run would use it."""
     m = deck_or_model if isinstance(deck_or_model, pydriver.Model) else pydriver.Model.from_deck(deck_or_model)
     q0, v0 = start_state(m)
-    y, _ = m.core.consistent_ggl_state(q0, v0)
-    return m, y[:m.nq], y[m.nq:2 * m.nq], float(m.deck["solver.t_end"])
+    start = m.core.consistent_start(q0, v0)
+    return m, start["q"], start["v"], float(m.deck["solver.t_end"])
 
 
 def timed_run(model, q0, v0, t_end: float, method: str = "rotorcable-IDA", rtol: float = 1e-6,

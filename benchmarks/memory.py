@@ -22,6 +22,9 @@ Each prints PASS or MISS; ``--strict`` makes a MISS exit with status 1.  Writes
 benchmarks/results/memory.json.
 Run:  .venv/bin/python benchmarks/memory.py            (about a minute; 1.1 GB in /tmp)
       .venv/bin/python benchmarks/memory.py --set solver.linear_solver=chain
+
+Needs the core's test and benchmark probes: a build with the meson option ``probes`` on
+(``bash .ci/setup``), not the product wheel (benchmarks/README.md).
 """
 
 from __future__ import annotations

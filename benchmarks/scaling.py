@@ -24,6 +24,8 @@ MISS).  The two-point exponent log(w_200 / w_20) / log(10) is printed beside the
 
 Writes benchmarks/results/scaling.csv, scaling.png, scaling_exponents.json (the fits and the
 target verdicts) and prints the fitted exponents.
+Needs the core's test and benchmark probes (timed integration, kernels, solvers): a build with
+the meson option ``probes`` on, as ``bash .ci/setup`` makes; the product wheel has none.
 Run:  .venv/bin/python benchmarks/scaling.py   (about four minutes on 2 cores)
       .venv/bin/python benchmarks/scaling.py --dense-max 0 --set solver.linear_solver=chain
 """

@@ -29,6 +29,9 @@ Writes benchmarks/results/work_precision.csv, work_precision.png and the table
 benchmarks/results/work_precision.md (time to reach 1e-6 m and the ratio to rotorcable).
 Run:  .venv/bin/pip install -r benchmarks/requirements.txt
       .venv/bin/python benchmarks/work_precision.py        (a few minutes on 2 cores)
+
+Needs the core's test and benchmark probes: a build with the meson option ``probes`` on
+(``bash .ci/setup``), not the product wheel (benchmarks/README.md).
 """
 
 from __future__ import annotations

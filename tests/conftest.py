@@ -51,3 +51,10 @@ def deck_copy(tmp_path):
             return dst
         return edit_deck(src, dst, group, assignments, **kw)
     return make
+
+
+def pytest_report_header(config):
+    """Whether the core under test has the probes most tests use (meson option ``probes``;
+    .ci/setup builds with it, the product wheel without)."""
+    from pydriver.core import HAS_PROBES
+    return f"rotorcable probes: {'built' if HAS_PROBES else 'NOT built (bash .ci/setup builds them)'}"

@@ -1,12 +1,15 @@
 """`pip install .` (meson-python, non-editable) builds a wheel whose extension imports.
 
 TOOLCHAIN.md: a missing SUNDIALS library links fine and only fails at import, so the
-installed wheel is imported and run once from outside the source tree.
+installed wheel is imported and run once from outside the source tree.  The product wheel is
+built without the test and benchmark probes (meson option ``probes``, default off; issue 23):
+these tests check that its extension has none and that it runs decks without them.
 """
 
 import os
 import subprocess
 import sys
+import textwrap
 
 from conftest import INPUTS, ROOT
 
@@ -21,6 +24,7 @@ def test_wheel_builds_installs_and_runs(tmp_path):
     code = ("import sys; sys.meta_path = [f for f in sys.meta_path if 'editable' not in type(f).__module__];"
             "sys.path.insert(0, sys.argv[1]); import pydriver, os;"
             "assert os.path.dirname(pydriver.__file__).startswith(sys.argv[1]), pydriver.__file__;"
+            "import pydriver._rotorcable as ext; assert not hasattr(ext, 'rotorcable_probes');"
             "r = pydriver.run_deck(sys.argv[2]); print(r.summary['reactions']['B']['F'][2])")
     env.pop("PYTHONPATH", None)
     out = subprocess.run([sys.executable, "-P", "-c", code, str(tmp_path / "site"),
@@ -76,3 +80,27 @@ def test_fresh_venv_gives_the_whole_tool(tmp_path):
     run("study", "cy-sweep", "--out", "st")
     rows = (work / "st" / "frequency_vs_cy.csv").read_text().splitlines()
     assert [float(x) for x in rows[1].split(",")][0] == 1.0          # numbers, not "np.float64(1.0)"
+    # The product carries no probes: no rotorcable_probes module, no probe symbol in the extension,
+    # and a probe called anyway says which build option adds them.
+    check = textwrap.dedent("""\
+        import pydriver, pydriver._rotorcable as ext, pydriver.core as core
+        from pydriver.analyses.dynamics import start_state
+        assert not hasattr(ext, "rotorcable_probes") and not core.HAS_PROBES
+        m = pydriver.Model.from_deck("ex/six_link_static.nml")
+        start = m.core.consistent_start(*start_state(m))      # the run API's own routines
+        assert abs(m.core.constraint_residual(start["q"])).max() < 1e-8
+        try:
+            m.core.rank_margin(start["q"])
+        except core.ProbesNotBuilt as e:
+            assert "-Dprobes=true" in str(e), e
+        else:
+            raise AssertionError("a probe ran in the product wheel")
+        print(ext.__file__)
+        """)
+    done = subprocess.run([str(venv / "bin" / "python"), "-c", check], cwd=work, capture_output=True, text=True,
+                          env=user_env, timeout=120)
+    assert done.returncode == 0, (done.stdout, done.stderr)
+    so = done.stdout.strip().splitlines()[-1]
+    symbols = subprocess.run(["nm", "-D", "--defined-only", so], capture_output=True, text=True).stdout
+    assert symbols and "rc_probe" not in symbols and "rotorcable_probes" not in symbols
+    assert "rc_constraint_residual" in symbols

@@ -13,6 +13,9 @@ exceeds 1e-10.
 With ``--runs`` it also integrates the two dynamic decks with DOP853 at rtol = 1e-10 and
 compares the CM positions and reactions at t_end with the project's own run
 (``pydriver.run_deck``, IDA at the deck's tolerances); this takes two to three minutes.
+
+Needs the core's test and benchmark probes: a build with the meson option ``probes`` on
+(``bash .ci/setup``), not the product wheel (benchmarks/README.md).
 """
 
 from __future__ import annotations

@@ -9,6 +9,9 @@
 
 Usage (from the project root):
     .venv/bin/python benchmarks/peers/exudyn_flight_verify.py [--n 11] [--steps-per-rev 250 500 1000]
+
+Needs the core's test and benchmark probes: a build with the meson option ``probes`` on
+(``bash .ci/setup``), not the product wheel (benchmarks/README.md).
 """
 
 from __future__ import annotations
