@@ -196,8 +196,9 @@ def hover_exponents(rtol: float):
 def test_hover_monodromy_from_rest_takes_a_sane_number_of_steps():
     """From an exact equilibrium the monodromy used to stall at ~1e-11 s steps (IDAS chose the
     order on the state's all-zero error estimates; src_fortran/monodromy.f90's header).  The
-    tangent integration now takes 2330 steps at rtol 1e-8 (4737 at 1e-9): the moving case's
-    count (5228 at rtol 1e-8 from a 1e-4 rad perturbation with IDAS).  Bound: twice that."""
+    tangent integration now takes 1751 steps at rtol 1e-8 (2483 at 1e-9, the rtol used here;
+    2330 and 4737 with the first, block-diagonal corrector): the moving case's count (5228 at
+    rtol 1e-8 from a 1e-4 rad perturbation with IDAS).  Bound: about twice that."""
     out, errors = hover_exponents(1.0e-9)
     assert out["stats"]["steps"] < 10000
     assert errors                                           # the 2.5 Hz first mode, |rho| = 0.13
