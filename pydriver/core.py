@@ -276,7 +276,8 @@ class CoreModel:
         return s
 
     def monodromy(self, settings: dict, t0: float, q0, v0, t) -> dict:
-        """One period from (q0, v0) at t0 with IDAS forward sensitivities (rotorcable_monodromy).
+        """One period from (q0, v0) at t0 with its forward sensitivities (rotorcable_monodromy: tangent
+        integration with IDA).
 
         Returns the consistent start ``q0``, ``v0``, the states ``q``, ``v`` (nq, len(t)) at the
         increasing output times ``t`` (the last one ends the period), the null-space basis

@@ -1,6 +1,7 @@
-"""The monodromy matrix of a periodic run (issue 21, item 3): IDAS forward sensitivities with the
-analytic sensitivity residual, in the independent coordinates x = (a, b) on the constraint
-manifold, checked against central differences of whole one-period integrations."""
+"""The monodromy matrix of a periodic run (issue 21, item 3): tangent integration (state and
+forward sensitivities as one DAE with IDA, the analytic sensitivity residual), in the independent
+coordinates x = (a, b) on the constraint manifold, checked against central differences of whole
+one-period integrations."""
 
 from __future__ import annotations
 
