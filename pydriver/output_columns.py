@@ -103,6 +103,7 @@ COLUMNS = [
     Column(("floquet.csv",), "frequency_hz", "Hz", "frequency, the multiple of 1/rev resolved by the hover mode"),
     Column(("floquet.csv",), "hover_frequency_hz", "Hz", "the hover mode that resolved it (blank: none)"),
     Column(("floquet.csv",), "damping_ratio", "-", "-Re(eta)/|eta|"),
+    Column(("floquet.csv",), "resolved", "-", "1: |rho| above the monodromy's resolution (10 rtol ||Phi||); 0: round-off, not matched to a hover mode"),
     # -- resonance margins -----------------------------------------------------------------------------
     Column(("resonance.csv",), "mode", "-", "mode number"),
     Column(("resonance.csv",), "operating_rpm", "rpm", "operating speed the margin is taken at"),

@@ -1,15 +1,19 @@
 """Floquet stability of a periodic motion (issue 21, item 4).
 
-The monodromy matrix Phi (2 nf x 2 nf, ``CoreModel.monodromy``: IDAS forward sensitivities in
-the independent coordinates on the constraint manifold, so the constraints add no spurious
-multipliers) maps a perturbation of the periodic state over one period T.  Its eigenvalues are
-the Floquet multipliers rho; the motion is asymptotically stable when every |rho| < 1.  Each
-multiplier gives a characteristic exponent eta = ln(rho) / T (principal branch), whose imaginary
-part is fixed only modulo 2 pi / T: the frequency Im(eta) / 2 pi is known modulo 1/rev.  It is
-resolved by the nearest of the hover modes' damped frequencies (``damped_frequencies_hz`` of the
-flight summary, :mod:`pydriver.analyses.hover_modes`), and the damping ratio follows from the
-resolved exponent, zeta = -Re(eta) / |eta| (Peters & Hohenemser 1971; Friedmann & Hammond 1983;
-docs/model.md "Floquet stability").
+The monodromy matrix Phi (2 nf x 2 nf, ``CoreModel.monodromy``: the variational equations
+integrated with the state, in the independent coordinates on the constraint manifold, so the
+constraints add no spurious multipliers) maps a perturbation of the periodic state over one
+period T.  Its eigenvalues are the Floquet multipliers rho; the motion is asymptotically stable
+when every |rho| < 1.  Each multiplier gives a characteristic exponent eta = ln(rho) / T
+(principal branch), whose imaginary part is fixed only modulo 2 pi / T: the frequency is known
+modulo 1/rev.  It is resolved by the nearest hover mode, matched on the whole complex exponent
+(the hover eigenvalue s = -zeta w_n + i w_d from ``damped_frequencies_hz`` and
+``damping_ratios`` of the flight summary, :mod:`pydriver.analyses.hover_modes`): matching on the
+frequency alone let round-off multipliers (|rho| ~ 1e-17, their phase meaningless) take hover
+modes first, and a well-resolved mode then got another mode's frequency.  Multipliers below
+the resolution of Phi (``resolution`` ||Phi||, the integration's rtol) are not matched.  The
+damping ratio follows from the resolved exponent, zeta = -Re(eta) / |eta| (Peters & Hohenemser
+1971; Friedmann & Hammond 1983; docs/model.md "Floquet stability").
 """
 
 from __future__ import annotations
@@ -23,7 +27,19 @@ def _candidates(f0: float, period: float, top: float) -> np.ndarray:
     return np.concatenate([k / period + f0, k / period - f0])
 
 
-def floquet_modes(phi: np.ndarray, period: float, hover_hz=()) -> dict:
+def hover_eigenvalues(hover_hz, hover_zeta=None) -> np.ndarray:
+    """The hover modes' eigenvalues s = -zeta w_n + i w_d [1/s] (w_n = w_d / sqrt(1 - zeta^2));
+    overdamped modes (frequency 0) have no oscillation to resolve and are left out."""
+    f = np.asarray(list(hover_hz), float)
+    z = np.zeros_like(f) if hover_zeta is None else np.asarray(list(hover_zeta), float)[:f.size]
+    keep = f > 0.0
+    w_d = 2.0 * np.pi * f[keep]
+    zeta = np.clip(z[keep], 0.0, 1.0 - 1e-12)
+    return -zeta * w_d / np.sqrt(1.0 - zeta ** 2) + 1j * w_d
+
+
+def floquet_modes(phi: np.ndarray, period: float, hover_hz=(), hover_zeta=None,
+                  resolution: float = 1.0e-8) -> dict:
     """Multipliers, exponents, resolved frequencies and damping ratios of a monodromy matrix.
 
     Parameters
@@ -32,8 +48,12 @@ def floquet_modes(phi: np.ndarray, period: float, hover_hz=()) -> dict:
         Monodromy matrix over one period.
     period : float
         The period T [s].
-    hover_hz : sequence of float
-        Damped frequencies [Hz] that resolve the 1/rev ambiguity (0 = overdamped, not used).
+    hover_hz, hover_zeta : sequences of float
+        Damped frequencies [Hz] and damping ratios of the modes that resolve the 1/rev
+        ambiguity (frequency 0 = overdamped, not used; no ratios: matched as undamped).
+    resolution : float
+        Relative accuracy of Phi (the integration's rtol): multipliers below 10 resolution
+        ||Phi||_2 are round-off and are not matched to a hover mode.
 
     Returns
     -------
@@ -41,35 +61,44 @@ def floquet_modes(phi: np.ndarray, period: float, hover_hz=()) -> dict:
         Columns of ``floquet.csv``, one row per mode: a complex-conjugate pair of multipliers
         is one mode (the one with Im rho >= 0), a real multiplier one mode; least damped first.
     """
-    rho = np.linalg.eigvals(np.asarray(phi, float))
+    phi = np.asarray(phi, float)
+    rho = np.linalg.eigvals(phi)
     keep = rho.imag >= -1e-14 * np.maximum(1.0, np.abs(rho))
     # A conjugate pair is one mode: drop the lower member (eig returns both).
     rho = rho[keep]
     size = np.maximum(np.abs(rho), np.finfo(float).tiny)
     eta = (np.log(size) + 1j * np.angle(rho)) / period
     f0 = np.abs(eta.imag) / (2.0 * np.pi)
-    hover = np.array([h for h in hover_hz if h > 0.0], float)
+    floor = 10.0 * resolution * max(1.0, float(np.linalg.norm(phi, 2))) if phi.size else 0.0
+    resolved = np.abs(rho) >= floor
+    s_hover = hover_eigenvalues(hover_hz, hover_zeta)
     freq, matched = f0.copy(), np.full(len(rho), np.nan)
-    if hover.size and len(rho):
-        top = float(hover.max())
-        # Greedy assignment on the distance between a hover mode and a mode's nearest candidate.
-        dist = np.empty((len(rho), hover.size))
-        best = np.empty((len(rho), hover.size))
-        for i, f in enumerate(f0):
-            cands = _candidates(f, period, top)
+    if s_hover.size and np.any(resolved):
+        top = float(s_hover.imag.max()) / (2.0 * np.pi)
+        # Greedy assignment on the relative distance between a hover eigenvalue and the nearest
+        # of an exponent's branches Re(eta) + i 2 pi f, f in k/T +- f0.
+        idx = np.flatnonzero(resolved)
+        dist = np.full((len(rho), s_hover.size), np.inf)
+        best = np.zeros((len(rho), s_hover.size))
+        for i in idx:
+            cands = _candidates(f0[i], period, top)
             cands = cands[cands >= 0.0]
-            for j, h in enumerate(hover):
-                k = int(np.argmin(np.abs(cands - h)))
-                dist[i, j], best[i, j] = abs(cands[k] - h), cands[k]
+            branch = eta[i].real + 2j * np.pi * cands
+            for j, sj in enumerate(s_hover):
+                d = np.abs(branch - sj)
+                k = int(np.argmin(d))
+                dist[i, j], best[i, j] = d[k] / abs(sj), cands[k]
         taken_i, taken_j = set(), set()
         for flat in np.argsort(dist, axis=None):
             i, j = np.unravel_index(flat, dist.shape)
+            if not np.isfinite(dist[i, j]):
+                break
             if i in taken_i or j in taken_j:
                 continue
             taken_i.add(i)
             taken_j.add(j)
-            freq[i], matched[i] = best[i, j], hover[j]
-            if len(taken_i) == len(rho) or len(taken_j) == hover.size:
+            freq[i], matched[i] = best[i, j], s_hover[j].imag / (2.0 * np.pi)
+            if len(taken_i) == idx.size or len(taken_j) == s_hover.size:
                 break
     omega = 2.0 * np.pi * freq
     mag = np.hypot(eta.real, omega)
@@ -78,7 +107,8 @@ def floquet_modes(phi: np.ndarray, period: float, hover_hz=()) -> dict:
     cols = {"mode": np.arange(1, len(rho) + 1), "multiplier_re": rho.real[order], "multiplier_im": rho.imag[order],
             "multiplier_abs": np.abs(rho)[order], "exponent_re_per_s": eta.real[order],
             "exponent_im_per_s": eta.imag[order], "frequency_hz": freq[order],
-            "hover_frequency_hz": matched[order], "damping_ratio": zeta[order]}
+            "hover_frequency_hz": matched[order], "damping_ratio": zeta[order],
+            "resolved": resolved[order].astype(int)}
     return cols
 
 
@@ -87,7 +117,9 @@ def floquet_summary(cols: dict, period: float) -> dict:
     damped mode (smallest damping ratio) with its frequency."""
     if not len(cols["mode"]):
         return {"stable": True, "n_modes": 0}
-    i = int(np.argmin(cols["damping_ratio"]))
+    # The least damped of the resolved modes: a round-off multiplier's exponent means nothing.
+    zeta = np.where(np.asarray(cols.get("resolved", np.ones(len(cols["mode"]))), bool), cols["damping_ratio"], np.inf)
+    i = int(np.argmin(zeta)) if np.isfinite(zeta).any() else int(np.argmin(cols["damping_ratio"]))
     return {"stable": bool(np.all(cols["multiplier_abs"] < 1.0)),
             "max_multiplier_abs": float(np.max(cols["multiplier_abs"])),
             "least_damped": {"damping_ratio": float(cols["damping_ratio"][i]),
@@ -102,7 +134,8 @@ def floquet_summary(cols: dict, period: float) -> dict:
 def add_floquet(model, result, phi: np.ndarray, period: float) -> None:
     """Put the Floquet modes of a flight result's monodromy into its summary and tables."""
     hover = result.summary.get("damped_frequencies_hz") or ()
-    cols = floquet_modes(phi, period, hover)
+    zeta = result.summary.get("damping_ratios")
+    cols = floquet_modes(phi, period, hover, zeta, resolution=model.solver_settings()["rtol"])
     result.summary["floquet"] = floquet_summary(cols, period)
     result.extra.setdefault("tables", {})["floquet.csv"] = cols
     if not result.summary["floquet"]["stable"]:
