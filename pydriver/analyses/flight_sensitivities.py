@@ -394,6 +394,10 @@ def flight_sensitivities(model, plans, period: float, start: dict, ts: dict) -> 
     sq = np.concatenate([second["sq"][:, -1:, :], second["sq"]], axis=1)
     sv = np.concatenate([second["sv"][:, -1:, :], second["sv"]], axis=1)
     d_end = np.vstack([second["sq"][:, -1, :], second["sv"][:, -1, :]])
+    if "phi" in start:
+        # In Phi's coordinates: the core completes s_v(0) = N db by the velocity rows' normal part.
+        d_end = np.vstack([basis.T @ d_end[:nq], basis.T @ d_end[nq:]])
+        d_start = red
     periodicity = float(np.max(np.abs(d_end - d_start)) / max(float(np.max(np.abs(d_start))), 1e-300))
     outputs = _Outputs(model, ts)
     values = []
