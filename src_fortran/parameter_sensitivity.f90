@@ -172,8 +172,8 @@ contains
   end subroutine parameter_sensitivity_run
 
   !> F_p of parameter k at (t, y, y'): the difference of the rebuilt models' GGL residuals.
-  !> Evaluates the base model last when it is a point (a one-sided difference), so callers must
-  !> evaluate the base residual again before a tangent.
+  !> A one-sided difference evaluates the run's own model too, so callers evaluate its residual
+  !> again before a tangent (which reuses the kinematics of the last residual).
   subroutine parameter_partial(points, k, t, y, yd, fp)
     type(difference_points), intent(inout) :: points  !< rebuilt models and weights
     integer, intent(in) :: k                  !< parameter
