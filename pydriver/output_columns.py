@@ -124,10 +124,13 @@ COLUMNS = [
     # -- design sensitivities ------------------------------------------------------------------------
     Column(("sensitivities.csv",), "output", "-",
            "the output differentiated: a reaction FA_x ... MB_z and a joint load axial{j}_N, shear{j}_N, "
-           "bending{j}_Nm, torsion{j}_Nm (static runs), or an undamped frequency f{k}_hz (modal runs)"),
+           "bending{j}_Nm, torsion{j}_Nm (static runs); an undamped frequency f{k}_hz (modal runs); over the "
+           "periodic revolution (flight runs) a reaction's extreme FA_x_max ... MB_z_min, a joint load's peak "
+           "|value| and amplitude {q}{j}_peak, {q}{j}_amplitude (q: bending, axial, torsion, strain) and, with "
+           "&fatigue, damage_per_hour{j}, del_amplitude{j} and del_FA_x ... del_MB_z"),
     Column(("sensitivities.csv",), "parameter", "-", "the &design parameter, group.key or group.key(i)"),
-    Column(("sensitivities.csv",), "value", "*", "d(output)/d(parameter) at the run's equilibrium (unit in the "
-                                                 "unit column; per degree for angle keys)"),
+    Column(("sensitivities.csv",), "value", "*", "d(output)/d(parameter) at the run's equilibrium or periodic "
+                                                 "state (unit in the unit column; per degree for angle keys)"),
     Column(("sensitivities.csv",), "unit", "-", "the unit of value: the output's unit over the parameter's"),
     # -- design optimisation (analysis = 'design') ---------------------------------------------------------
     Column(("design_history.csv",), "iteration", "-", "0: the deck's design; then one row per optimiser iteration"),

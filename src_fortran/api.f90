@@ -19,6 +19,7 @@ module rotorcable_api
   use rotorcable_dae_integrator, only: integrator_settings, settings_from_arrays, dae_session, session_start, &
                                        session_advance, consistent_start
   use rotorcable_monodromy, only: monodromy_run
+  use rotorcable_parameter_sensitivity, only: difference_points, parameter_sensitivity_run
   use rotorcable_dae_integrator, only: solver_stats
   use rotorcable_sampling, only: sample_state, joint_loads, shape_of, support_motion
   implicit none
@@ -26,7 +27,8 @@ module rotorcable_api
   public :: rc_model_new, rc_model_free, rc_model_add_load, rc_model_set_base, rc_model_set_clamp, &
             rc_model_set_rotor, rc_model_finish, rc_thesis_coordinates, rc_shape, rc_static, &
             rc_static_system, rc_modal, rc_modal_matrices, rc_dynamic_start, rc_dynamic_advance, rc_dynamic_free, rc_sample, &
-            rc_monodromy, rc_model_update, rc_model_parameter, rc_constraint_residual, rc_consistent_start
+            rc_monodromy, rc_model_update, rc_model_parameter, rc_constraint_residual, rc_consistent_start, &
+            rc_parameter_sensitivity
 
 contains
 
@@ -593,5 +595,69 @@ contains
     if (error%code == 0) call consistent_start(model, t, q, v, vdot, lambda(1:model%nc), error)
     call report(error, stat, key, msg)
   end subroutine rc_consistent_start
+
+  !> An integration from (q0, v0) at t0 through the output times t with the forward
+  !> sensitivities of np design parameters (rotorcable_parameter_sensitivity), starting from the
+  !> state sensitivities (sq0, sv0).  The explicit partial dF/dp_k is sum_i weights(i, k)
+  !> F(model handles(i, k)) / h(k) (handle 0: this model).
+  subroutine rc_parameter_sensitivity(handle, settings_real, settings_int, t0, nq, q0, v0, np, npts, handles, &
+                                      offsets, weights, h, pbar, sq0, sv0, nt, t, q, v, q_start, v_start, sq, sv, &
+                                      stats, stat, key, msg)
+    integer(c_int), intent(in) :: handle          !< model handle
+    real(c_double), intent(in) :: settings_real(4)  !< rtol, atol, atol_multiplier, h_max
+    integer(c_int), intent(in) :: settings_int(5)   !< as rc_dynamic_start
+    real(c_double), intent(in) :: t0              !< start time [s]
+    integer(c_int), intent(in) :: nq, np, npts, nt  !< coordinates, parameters, difference points, output times
+    real(c_double), intent(in) :: q0(nq), v0(nq)  !< start state
+    integer(c_int), intent(in) :: handles(npts, np)  !< rebuilt models (0: this model)
+    real(c_double), intent(in) :: offsets(npts, np)  !< their offsets in steps
+    real(c_double), intent(in) :: weights(npts, np)  !< difference weights (0: unused point)
+    real(c_double), intent(in) :: h(np)           !< steps [unit of p]
+    real(c_double), intent(in) :: pbar(np)        !< scales of the parameters (> 0)
+    real(c_double), intent(in) :: sq0(nq, np), sv0(nq, np)  !< start sensitivities
+    real(c_double), intent(in) :: t(nt)           !< increasing output times > t0 [s]
+    real(c_double), intent(out) :: q(nq, nt), v(nq, nt)  !< states at t
+    real(c_double), intent(out) :: q_start(nq), v_start(nq)  !< consistent start
+    real(c_double), intent(out) :: sq(nq, nt, np), sv(nq, nt, np)  !< sensitivities at t
+    integer(c_int), intent(out) :: stats(6)       !< as rc_monodromy
+    integer(c_int), intent(out) :: stat           !< status
+    character(len=64), intent(out) :: key         !< input at fault
+    character(len=1024), intent(out) :: msg       !< why
+    type(model_type), pointer :: model
+    type(difference_points), target :: points
+    type(error_type) :: error
+    type(solver_stats) :: st
+    integer :: n_sens, i, k
+    q = 0.0_dp; v = 0.0_dp; sq = 0.0_dp; sv = 0.0_dp; stats = 0
+    q_start = q0; v_start = v0
+    model => model_of(handle, error)
+    if (error%code == 0) then
+      if (nq /= model%nq) call fatal_error(error, 'rc_parameter_sensitivity: wrong sizes')
+      if (any(pbar <= 0.0_dp) .or. any(h <= 0.0_dp)) &
+        call fatal_error(error, 'rc_parameter_sensitivity: steps and parameter scales must be > 0')
+    end if
+    if (error%code == 0) then
+      allocate (points%model(npts, np))
+      points%offset = offsets; points%weight = weights; points%h = h
+      do k = 1, np
+        do i = 1, npts
+          if (handles(i, k) == 0) cycle
+          points%model(i, k)%m => model_of(handles(i, k), error)
+          if (error%code /= 0) exit
+          if (points%model(i, k)%m%nq /= model%nq .or. points%model(i, k)%m%nc /= model%nc) &
+            call fatal_error(error, 'rc_parameter_sensitivity: a rebuilt model has other sizes than the run''s')
+          if (error%code /= 0) exit
+        end do
+        if (error%code /= 0) exit
+      end do
+    end if
+    if (error%code == 0) then
+      call parameter_sensitivity_run(model, points, pbar, settings_from_arrays(settings_real, settings_int), t0, &
+                                     q_start, v_start, sq0, sv0, t, q, v, sq, sv, st, n_sens, error)
+      stats = [st%steps, st%residual_evals, st%jacobian_evals, st%error_test_failures, st%convergence_failures, &
+               n_sens]
+    end if
+    call report(error, stat, key, msg)
+  end subroutine rc_parameter_sensitivity
 
 end module rotorcable_api

@@ -33,6 +33,9 @@ module rotorcable_ggl_residual
     integer :: jacobian_max_age = 1           !< steps before they are formed again
     logical :: analytic = .true.              !< physics columns by tangent sweeps (else differences)
     character(len=512) :: ida_message = ''
+    !> Data of a sensitivity residual beyond the model (rotorcable_parameter_sensitivity: the
+    !> models rebuilt at p +- h); IDAS hands the sensitivity residual this same user data.
+    type(c_ptr) :: extra = c_null_ptr
   end type ida_user_data
 
 contains

@@ -139,6 +139,13 @@ def flight_analysis(model, run_dir=None) -> Result:
                                "differences_m": shooting["differences_m"], "steps": shooting["steps"],
                                "revolutions_integrated": shooting["iterations"] + summary["revolutions"]}
     extra = {"q": q_last.T, "shape_joints": sample["joints"]}
+    # A start on the periodic orbit at t = 0 and, where one was taken there, its monodromy and the
+    # basis of its coordinates (the design sensitivities, pydriver/analyses/flight_sensitivities.py).
+    if shooting is not None:
+        extra["orbit"] = {"q0": q0, "v0": v0, "phi": shooting["phi"], "basis": shooting["basis"]}
+    else:
+        extra["orbit"] = {"q0": q_last[:, 0], "v0": v_last[:, 0]}
+    extra["orbit"]["period_s"] = period
     if s["floquet"]:
         # The monodromy at the periodic state: shooting's last iterate, or one revolution with
         # sensitivities from the start of the last marched revolution (Floquet stability).
@@ -147,6 +154,7 @@ def flight_analysis(model, run_dir=None) -> Result:
         else:
             mono = model.core.monodromy(model.solver_settings(), 0.0, q_last[:, 0], v_last[:, 0], [period])
             extra["monodromy"] = mono["phi"]
+            extra["orbit"].update(q0=mono["q0"], v0=mono["v0"], phi=mono["phi"], basis=mono["basis"])
         extra["period_s"] = period
     if "fatigue" in model.deck.groups:
         summary["fatigue"], columns = fatigue_of_run(model, ts, periodic=True)

@@ -1,4 +1,5 @@
-"""Design sensitivities of a static or modal run (``&design parameters``; issue 24, first increment).
+"""Design sensitivities of a static or modal run (``&design parameters``; issue 24, first increment;
+flight runs: :mod:`pydriver.analyses.flight_sensitivities`).
 
 Static runs: d(reactions)/dp and d(joint loads)/dp by the implicit function theorem at the
 converged equilibrium (docs/model.md, "Design sensitivities").  With x = (q, lambda) and the
@@ -100,6 +101,9 @@ def plan(model) -> list[Plan]:
                                     f"{p.value:g}: {err.group}.{err.key}: {err.reason}") from None
             points.append((s, w, models.get(s)))
         out.append(Plan(p, h, scheme, points))
+    if model.analysis == "flight":
+        from pydriver.analyses.flight_sensitivities import check_flight_plans
+        check_flight_plans(model, out)
     return out
 
 
@@ -252,15 +256,18 @@ def _pack(plans, names, units, values, warnings) -> dict:
 
 
 def attach_sensitivities(model, result, plans: list[Plan]) -> None:
-    """Add the sensitivities of a finished static or modal run to its result (summary and
+    """Add the sensitivities of a finished static, modal or flight run to its result (summary and
     ``sensitivities.csv``)."""
     if not plans:
         return
-    q, lam = result.extra["q"], result.extra["lambda"]
-    if model.analysis == "static":
-        sens = static_sensitivities(model, plans, q, lam)
+    if model.analysis == "flight":
+        from pydriver.analyses.flight_sensitivities import flight_sensitivities
+        orbit = result.extra["orbit"]
+        sens = flight_sensitivities(model, plans, orbit["period_s"], orbit, result.timeseries)
+    elif model.analysis == "static":
+        sens = static_sensitivities(model, plans, result.extra["q"], result.extra["lambda"])
     else:
-        sens = modal_sensitivities(model, plans, q, lam)
+        sens = modal_sensitivities(model, plans, result.extra["q"], result.extra["lambda"])
     result.summary["sensitivities"] = sens["summary"]
     if sens["warnings"]:
         result.summary.setdefault("warnings", []).extend(sens["warnings"])

@@ -43,7 +43,7 @@ def periodic_start(model, period: float, tol: float):
         differences.append(float(np.max(np.abs(cm1 - cm0))))
         if differences[-1] < tol:
             return qs, vs, {"iterations": it + 1, "differences_m": differences, "steps": steps,
-                            "phi": mono["phi"]}
+                            "phi": mono["phi"], "basis": mono["basis"]}
         basis, phi = mono["basis"], mono["phi"]
         nf = basis.shape[1]
         residual = np.concatenate([basis.T @ (q_end - qs), basis.T @ (v_end - vs)])

@@ -1,0 +1,100 @@
+"""Cost of a flight run's design sensitivities (issue 24: <= 3x the run without them for <= 8
+parameters).
+
+The main job's cable (``inputs/uh60_part2_forward_flight_cable.nml`` at one level, n = 11) run
+as a whole flight run (``pydriver.run_deck``: marching to the periodic state, sampling, fatigue)
+without ``&design`` and with 1, 3 and 8 parameters, in two settings:
+
+* ``floquet on``: the deck as shipped (``&solver floquet = .true.``): the run takes the monodromy
+  for the Floquet analysis anyway, and the sensitivities solve (I - Phi) directly;
+* ``floquet off``: no monodromy; the periodic start's sensitivity comes from GMRES on
+  one-revolution products (pydriver/analyses/flight_sensitivities.py).
+
+Reports the median wall time of --repeat runs and its ratio to the run without sensitivities,
+and, robust to a busy machine, the paired ratio of each run with sensitivities: its wall time
+over its wall time less the sensitivities' own (``summary['sensitivities']['wall_time_s']``;
+the rest is the run as without them, up to the parameters' model builds), median over the
+repeats; and the work (solver steps of the
+sensitivity integrations, Krylov iterations).  Every run is
+checked to have done the work: revolutions > 0 and steps > 0, and with parameters a finite
+sensitivity for every output and parameter.
+
+    .venv/bin/python benchmarks/flight_sensitivities.py [--repeat 5]
+
+Writes benchmarks/results/flight_sensitivities.csv.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import statistics
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+import pydriver  # noqa: E402
+
+DECK = ROOT / "inputs" / "uh60_part2_forward_flight_cable.nml"
+#: Parameters that leave the supports and the period alone (flight runs refuse the others).
+PARAMETERS = ["cable.ei", "cable.gj", "cable.damping_time", "drag.cd", "cable.mass_per_length", "chain.diameter",
+              "drag.forward_speed", "loads.gravity(3)"]
+
+
+def one(model):
+    t0 = time.perf_counter()
+    s = pydriver.run_deck(model).summary
+    wall = time.perf_counter() - t0
+    if s["revolutions"] <= 0 or s["solver"]["steps"] <= 0:
+        raise SystemExit("no work done")
+    work, paired = "", 1.0
+    if "design" in model.deck.groups:
+        sens = s["sensitivities"]
+        values = [v for row in sens["d_output_d_parameter"].values() for v in row.values()]
+        if not values or not all(math.isfinite(v) for v in values):
+            raise SystemExit("sensitivities missing or not finite")
+        solver = sens["solver"]
+        steps = solver["first"]["steps"] + solver["second"]["steps"] + solver.get("steps", 0)
+        if steps <= 0:
+            raise SystemExit("sensitivity integrations took no steps")
+        work = f"{steps} sensitivity steps" + (f", {solver['krylov_iterations']} Krylov iterations"
+                                               if "krylov_iterations" in solver else ", monodromy solve")
+        paired = wall / (wall - sens["wall_time_s"])
+    return wall, work, paired
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=5)
+    args = parser.parse_args()
+    base = pydriver.Model.from_deck(DECK).with_changes({"refinement.levels": 1})
+    rows = []
+    for floquet in (True, False):
+        ref = None
+        for n_par in (0, 1, 3, 8):
+            changes = {"solver.floquet": floquet}
+            if n_par:
+                changes["design.parameters"] = PARAMETERS[:n_par]
+            model = base.with_changes(changes)
+            runs = [one(model) for _ in range(args.repeat)]
+            wall = statistics.median(r[0] for r in runs)
+            ref = wall if n_par == 0 else ref
+            paired = statistics.median(r[2] for r in runs)
+            rows.append({"floquet": "on" if floquet else "off", "parameters": n_par, "median_wall_s": wall,
+                         "ratio": wall / ref, "paired_ratio": paired, "work": runs[0][1]})
+            print(f"floquet {rows[-1]['floquet']:3s}  {n_par} parameters: {wall:7.3f} s  "
+                  f"{wall / ref:5.2f}x  paired {paired:5.2f}x  {runs[0][1]}", flush=True)
+    out = ROOT / "benchmarks" / "results" / "flight_sensitivities.csv"
+    with out.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    print(f"wrote {out}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,424 @@
+"""Design sensitivities of a flight run (``&design parameters``; issue 24, flight increment).
+
+The periodic revolution is a smooth function of the parameters; its outputs' derivatives come
+from forward sensitivities through the DAE ("tangent integration", docs/model.md "Design
+sensitivities of a flight"):
+
+1. **Parameter sensitivities.**  ``CoreModel.parameter_sensitivity`` integrates
+   s = dy/dp with the state (IDAS, residual F_y s + F_y' s' + F_p; F_y s + F_y' s' the analytic
+   tangent, F_p a central difference of the GGL residual of the models rebuilt at p +- h at the
+   FIXED (t, y, y'), O(h^2) with h = eps^(1/3) max(|p|, 1 unit): ~1e-11 relative, far below
+   the integration's tolerances).
+2. **Periodic start.**  With x = (a, b) the independent coordinates about the start (basis N,
+   as the monodromy's), the periodic start satisfies x* = X(T; x*, p), so
+
+       dx*/dp = (I - Phi)^-1 dX(T)/dp
+
+   with Phi the monodromy at the start and dX(T)/dp the parameter sensitivities after one
+   revolution from the start with zero initial state sensitivity (first integration).
+3. **The revolution.**  A second integration from the start with the initial sensitivity
+   (N da*, N db* - G^+ H N da*) (made consistent in the core) gives s at every output time;
+   the outputs' derivatives are central differences of the core's sample function along
+   (q + e s_q, v + e s_v, p + e): no re-solve.  s(T) = s(0) checks the periodicity.
+4. **Outputs.**  Peaks and extrema: the derivative at the arg-max sample (exact away from
+   ties and from a change of the sample that holds the maximum); amplitudes (max - min)/2
+   likewise.  Miner damage and damage-equivalent loads with the rainflow cycle set held fixed:
+   a cycle between reversal samples i, k has amplitude S = |x_k - x_i|/2 and
+   dS/dp = sign(x_k - x_i) (dx_k/dp - dx_i/dp)/2, then dD/dp = sum m D_i/S_i dS_i/dp and
+   dS_eq/dp = S_eq^(1-m)/n_eq sum n_i S_i^(m-1) dS_i/dp: exact between changes of the cycle
+   set (a new small cycle, a reversal moving to a neighbouring sample, the worst point around
+   the jacket moving to another of the circumferential points).
+
+Parameters that move the constraints (clamp positions and angles, the cable's length, the
+rotor centre) would change the consistent start itself and are refused for flight runs, as is
+the rotor speed (it changes the revolution period): ``DeckError`` on ``&design parameters``.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from pydriver import fatigue
+from pydriver.analyses.common import REACTION_NAMES, joint_geometry
+from pydriver.analyses.dynamics import chunk_columns
+from pydriver.analyses.fatigue_loads import _components, _record, sn_curve
+from pydriver.analyses.sensitivities import _pack
+from pydriver.errors import DeckError, RunError
+
+#: Keys whose change moves a support or changes the period: refused for flight runs.
+REFUSED = {"chain.total_length": "moves clamp B relative to the cable (the constraint)",
+           "chain.body_length": "moves clamp B relative to the cable (the constraint)",
+           "rotor.rpm": "changes the revolution period", "loads.rotor_rpm": "changes the revolution period",
+           "rotor.centre": "moves the blade and clamp B", "loads.rotor_offset": "moves the blade and clamp B"}
+REFUSED_GROUPS = {"clamp_a": "moves support A (the constraint)", "clamp_b": "moves clamp B (the constraint)",
+                  "blade": "moves clamp B with the blade (the constraint)"}
+#: The constraint residual g of the rebuilt models at one state differs by more than this [m, rad]
+#: only when the parameter moves a support (identical arithmetic otherwise).
+CONSTRAINT_TOL = 1.0e-12
+#: Peak loads per joint: (quantity, time-series unit suffix, unit).
+#: Krylov iterations (one revolution each) for the periodic start's sensitivities without a monodromy.
+MAX_KRYLOV = 60
+PEAK_LOADS = (("bending", "_Nm", "Nm"), ("axial", "_N", "N"), ("torsion", "_Nm", "Nm"), ("strain", "", "-"))
+
+
+def check_flight_plans(model, plans) -> None:
+    """Refuse parameters whose flight sensitivities this version does not give (module doc)."""
+    for pl in plans:
+        p = pl.parameter
+        dotted = f"{p.group}.{p.key}"
+        reason = REFUSED.get(dotted) or REFUSED_GROUPS.get(p.group)
+        if reason is None:
+            reason = _moves_constraint(model, pl)
+        if reason:
+            raise DeckError(model.name, "design", "parameters",
+                            f"'{p.name}' {reason}: flight sensitivities are given for parameters that leave "
+                            "the supports and the period alone in this version (docs/model.md, \"Design "
+                            "sensitivities of a flight\")")
+
+
+def _moves_constraint(model, pl) -> str | None:
+    """A reason if the rebuilt models' constraint residuals differ at the deck's start shape."""
+    q, lam = model.q0, np.zeros(model.nc)
+    if model.nc == 0:
+        return None
+    for t in 0.25 * np.arange(4):        # a moving clamp: a few times [s]
+        gs = [(m or model).core.static_system(q, lam, t=t)["g"] for _, _, m in pl.points]
+        if max(float(np.max(np.abs(g - gs[0]))) for g in gs) > CONSTRAINT_TOL:
+            return "moves the clamp constraint"
+    return None
+
+
+def _unit(name: str) -> str:
+    return "N" if name.startswith("F") else "Nm"
+
+
+class _Outputs:
+    """The outputs of a flight's revolution and, for each, how its derivative follows from the
+    derivative of the time series (selection by the base run, held fixed)."""
+
+    def __init__(self, model, ts):
+        self.names, self.units, self.values, self.rules = [], [], [], []
+        nb = model.n_bodies
+        for name in REACTION_NAMES[:12 if model.nc else 6]:
+            x = ts[name]
+            for tag, k in (("max", int(np.argmax(x))), ("min", int(np.argmin(x)))):
+                self._add(f"{name}_{tag}", _unit(name), float(x[k]), ("sample", name, k, 1.0))
+        for qty, suffix, unit in PEAK_LOADS:
+            for j in range(1, nb + 1):
+                col = f"{qty}{j}{suffix}"
+                x = ts[col]
+                k = int(np.argmax(np.abs(x)))
+                self._add(f"{qty}{j}_peak", unit, float(abs(x[k])), ("sample", col, k, float(np.sign(x[k]))))
+                hi, lo = int(np.argmax(x)), int(np.argmin(x))
+                self._add(f"{qty}{j}_amplitude", unit, 0.5 * float(x[hi] - x[lo]), ("range", col, hi, lo))
+        if "fatigue" in model.deck.groups:
+            self._fatigue(model, ts)
+
+    def _add(self, name, unit, value, rule):
+        self.names.append(name)
+        self.units.append(unit)
+        self.values.append(value)
+        self.rules.append(rule)
+
+    def _fatigue(self, model, ts):
+        """Per joint: damage per flight hour and DEL at its worst point; DELs of the reactions."""
+        f = model.deck.values["fatigue"]
+        sn = sn_curve(model.deck)
+        record = _record(model, ts, periodic=True)
+        points = int(f["circumferential_points"])
+        phi = 2.0 * np.pi * np.arange(points) / points
+        radius = 0.5 * joint_geometry(model)["diameter"]
+        unit = "-" if f["sn_quantity"] == "strain" else "Nm"
+        for j in range(1, model.n_bodies + 1):
+            a, b, scale = _components(ts, j, f["sn_quantity"], radius[j - 1])
+            best = None
+            for k in range(points):
+                x = scale * (np.sin(phi[k]) * a - np.cos(phi[k]) * b)
+                damage = fatigue.miner_damage(fatigue.cycles(x, periodic=True), sn)
+                if best is None or damage > best[0]:
+                    best = (damage, k, x)
+            damage, k, x = best
+            cyc = _cycle_set(x)
+            signal = ("point", j, float(phi[k]))
+            self._add(f"damage_per_hour{j}", "1/h", damage * record["per_hour"],
+                      ("damage", signal, cyc, sn, record["per_hour"]))
+            self._add(f"del_amplitude{j}", unit,
+                      fatigue.damage_equivalent_amplitude(fatigue.cycles(x, periodic=True), sn.exponent,
+                                                          record["n_equivalent"]),
+                      ("del", signal, cyc, sn.exponent, record["n_equivalent"]))
+        for name in REACTION_NAMES[:12 if model.nc else 6]:
+            x = ts[name]
+            self._add(f"del_{name}", _unit(name),
+                      fatigue.damage_equivalent_amplitude(fatigue.cycles(x, periodic=True), sn.exponent,
+                                                          record["n_equivalent"]),
+                      ("del", ("column", name), _cycle_set(x), sn.exponent, record["n_equivalent"]))
+
+    def frozen(self, signal_of) -> np.ndarray:
+        """The outputs of another time series (``signal_of(spec)``) with this one's selection
+        held: the samples of the extremes, the cycle set, the point around the jacket.  Its
+        derivative is what :meth:`derivatives` gives."""
+        out = np.zeros(len(self.rules))
+        for i, rule in enumerate(self.rules):
+            kind = rule[0]
+            if kind == "sample":
+                _, col, k, sign = rule
+                out[i] = sign * signal_of(("column", col))[k]
+            elif kind == "range":
+                _, col, hi, lo = rule
+                x = signal_of(("column", col))
+                out[i] = 0.5 * (x[hi] - x[lo])
+            else:
+                _, spec, cyc, *rest = rule
+                x = signal_of(spec)
+                amp, _ = _amplitudes(x, x, cyc)
+                if kind == "damage":
+                    sn, per_hour = rest
+                    live = amp > sn.endurance_amplitude
+                    out[i] = per_hour * float(np.sum(cyc.counts[live] * (amp[live] / sn.reference_amplitude)
+                                                     ** sn.exponent)) / sn.reference_cycles
+                else:
+                    m, n_eq = rest
+                    out[i] = (float(np.sum(cyc.counts * amp ** m)) / n_eq) ** (1.0 / m)
+        return out
+
+    def derivatives(self, signal_of, d_signal_of) -> np.ndarray:
+        """d(output)/dp from ``d_signal_of(spec)`` (the derivative of a time-series signal) and
+        ``signal_of(spec)`` (the signal itself)."""
+        out = np.zeros(len(self.rules))
+        for i, rule in enumerate(self.rules):
+            kind = rule[0]
+            if kind == "sample":
+                _, col, k, sign = rule
+                out[i] = sign * d_signal_of(("column", col))[k]
+            elif kind == "range":
+                _, col, hi, lo = rule
+                dx = d_signal_of(("column", col))
+                out[i] = 0.5 * (dx[hi] - dx[lo])
+            else:
+                _, spec, cyc, *rest = rule
+                x, dx = signal_of(spec), d_signal_of(spec)
+                amp, d_amp = _amplitudes(x, dx, cyc)
+                if kind == "damage":
+                    sn, per_hour = rest
+                    live = amp > sn.endurance_amplitude
+                    d_i = cyc.counts[live] * (amp[live] / sn.reference_amplitude) ** sn.exponent / sn.reference_cycles
+                    # dD = sum m D_i / S_i dS_i (the cycle set held fixed)
+                    out[i] = per_hour * float(np.sum(sn.exponent * d_i / amp[live] * d_amp[live]))
+                else:
+                    m, n_eq = rest
+                    live = amp > 0.0
+                    if np.any(live):
+                        s_eq = (np.sum(cyc.counts[live] * amp[live] ** m) / n_eq) ** (1.0 / m)
+                        out[i] = s_eq ** (1.0 - m) / n_eq * float(
+                            np.sum(cyc.counts[live] * amp[live] ** (m - 1.0) * d_amp[live]))
+        return out
+
+
+class _CycleSet:
+    """Rainflow cycles of a periodic signal with the sample indices of their reversals."""
+
+    def __init__(self, start, end, counts):
+        self.start, self.end, self.counts = start, end, counts
+
+
+def _cycle_set(x) -> _CycleSet:
+    """The cycles of :func:`pydriver.fatigue.cycles` (periodic) with their reversal samples:
+    the closed history is x rotated to its maximum (``close_period``), so its sample i is the
+    signal's sample (i0 + i) mod n."""
+    x = np.asarray(x, float)
+    n, i0 = x.size, int(np.argmax(x))
+    closed = fatigue.close_period(x)
+    found = [(r, m, c, a, b) for r, m, c, a, b in fatigue.rainflow.extract_cycles(closed) if r > 0.0]
+    # Pair the half cycles over the same two extremes into full cycles (fatigue._pair_half_cycles).
+    out, pending = [], {}
+    for r, m, c, a, b in found:
+        if c == 1.0:
+            out.append([a, b, 1.0])
+        elif (r, m) in pending:
+            out[pending.pop((r, m))][2] = 1.0
+        else:
+            pending[(r, m)] = len(out)
+            out.append([a, b, 0.5])
+    if not out:
+        return _CycleSet(np.zeros(0, int), np.zeros(0, int), np.zeros(0))
+    arr = np.array(out)
+    return _CycleSet((i0 + arr[:, 0].astype(int)) % n, (i0 + arr[:, 1].astype(int)) % n, arr[:, 2])
+
+
+def _amplitudes(x, dx, cyc: _CycleSet):
+    """Cycle amplitudes S = |x_k - x_i|/2 and their derivatives at the fixed reversal samples."""
+    diff = x[cyc.end] - x[cyc.start]
+    return 0.5 * np.abs(diff), 0.5 * np.sign(diff) * (dx[cyc.end] - dx[cyc.start])
+
+
+def _signal(model, ts, spec) -> np.ndarray:
+    """A time-series signal: a column, or the fatigue quantity at a point around joint j."""
+    if spec[0] == "column":
+        return np.asarray(ts[spec[1]], float)
+    _, j, phi = spec
+    f = model.deck.values["fatigue"]
+    a, b, scale = _components(ts, j, f["sn_quantity"], 0.5 * joint_geometry(model)["diameter"][j - 1])
+    return scale * (np.sin(phi) * a - np.cos(phi) * b)
+
+
+def flight_outputs(model, ts) -> tuple[list, list, np.ndarray]:
+    """(names, units, values) of the outputs whose flight sensitivities are reported."""
+    o = _Outputs(model, ts)
+    return o.names, o.units, np.asarray(o.values)
+
+
+def flight_outputs_frozen(model, ts, other_model, other_ts) -> np.ndarray:
+    """The outputs of ``other_ts`` (a run of ``other_model``) with the selection of ``ts`` held
+    (:meth:`_Outputs.frozen`): differences of these are the reference of the sensitivities
+    across a change of selection."""
+    return _Outputs(model, ts).frozen(lambda spec: _signal(other_model, other_ts, spec))
+
+
+def flight_selections(model, ts) -> dict:
+    """What each output's value is selected by: the samples of its extremes, its rainflow cycle
+    set (reversal samples and counts) and, for a joint's damage, the point around the jacket.
+    Between two parameter values with the same selections the outputs are smooth functions of
+    the time series (their sensitivities exact); a change of selection is a kink."""
+    o = _Outputs(model, ts)
+    out = {}
+    for name, rule in zip(o.names, o.rules):
+        if rule[0] in ("sample", "range"):
+            out[name] = tuple(rule[2:4]) if rule[0] == "range" else (rule[2], rule[3])
+        else:
+            # The cycles that carry the damage: one below 1e-9 of the sum S^m changes the output by
+            # less than that when it appears or vanishes (noise-level cycles on a plateau do).
+            cyc, x = rule[2], _signal(model, ts, rule[1])
+            m = rule[3].exponent if rule[0] == "damage" else rule[3]
+            amp, _ = _amplitudes(x, x, cyc)
+            share = cyc.counts * (amp / max(float(np.max(amp, initial=0.0)), 1e-300)) ** m
+            keep = share >= 1.0e-9 * max(float(np.sum(share)), 1e-300)
+            out[name] = (rule[1], tuple(cyc.start[keep]), tuple(cyc.end[keep]), tuple(cyc.counts[keep]))
+    return out
+
+
+def _points(pl) -> tuple:
+    """(h, pbar, [(offset, weight, CoreModel or None)]) of a plan for the core."""
+    pbar = abs(pl.parameter.value) if pl.parameter.value != 0.0 else 1.0
+    return (pl.h, pbar, [(s, w, None if m is None else m.core) for s, w, m in pl.points])
+
+
+def _periodic_start_krylov(model, settings, period, q0, v0, points, d_x):
+    """The periodic start's sensitivities s* = (s_q, s_v) without the monodromy: GMRES on
+    (I - Psi) s* = dX(T)/dp, one Krylov vector per parameter and iteration, all parameters in one
+    integration per iteration (Psi s = the sensitivity after one revolution from s with the
+    parameter partials off: the rebuilt models replaced by the run's own, F_p = 0).  The rates
+    are weighted by T / 2 pi, so that q and v count alike.  Converged at a relative residual of
+    the integration's rtol, beyond which the products carry integration error only."""
+    nq, n_par = model.nq, d_x.shape[1]
+    scale = np.concatenate([np.ones(nq), np.full(nq, period / (2.0 * np.pi))])
+    off = [(pb[0], pb[1], [(1.0, 0.5, None), (-1.0, -0.5, None)]) for pb in points]
+    tol = float(settings["rtol"])
+    rhs = scale[:, None] * d_x
+    beta = np.linalg.norm(rhs, axis=0)
+    basis = [rhs / np.where(beta > 0.0, beta, 1.0)]
+    hess = np.zeros((MAX_KRYLOV + 1, MAX_KRYLOV, n_par))
+    work = {"matvecs": 0, "steps": 0}
+    y = np.zeros_like(rhs)
+    for it in range(MAX_KRYLOV):
+        w_in = basis[-1] / scale[:, None]
+        run = model.core.parameter_sensitivity(settings, 0.0, q0, v0, off, w_in[:nq], w_in[nq:], [period])
+        work["matvecs"] += 1
+        work["steps"] += run["stats"]["steps"]
+        w = basis[-1] - scale[:, None] * np.vstack([run["sq"][:, -1, :], run["sv"][:, -1, :]])
+        for j, vj in enumerate(basis):                     # modified Gram-Schmidt, per parameter
+            hj = np.sum(vj * w, axis=0)
+            hess[j, it] = hj
+            w = w - vj * hj
+        hn = np.linalg.norm(w, axis=0)
+        hess[it + 1, it] = hn
+        basis.append(w / np.where(hn > 0.0, hn, 1.0))
+        res = []
+        for k in range(n_par):
+            e1 = np.zeros(it + 2)
+            e1[0] = beta[k]
+            h = hess[:it + 2, :it + 1, k]
+            c, *_ = np.linalg.lstsq(h, e1, rcond=None)
+            y[:, k] = np.column_stack([b[:, k] for b in basis[:it + 1]]) @ c
+            res.append(np.linalg.norm(h @ c - e1) / max(beta[k], 1e-300))
+        if max(res) < tol:
+            return y / scale[:, None], {"periodic_start": "krylov", "krylov_iterations": it + 1, **work}
+    raise RunError(f"deck '{model.name}': the periodic start's sensitivities did not converge in {MAX_KRYLOV} "
+                   f"Krylov iterations (relative residual {max(res):.1e} > rtol {tol:g}); turn &solver floquet on "
+                   "(the monodromy's direct solve)")
+
+
+def flight_sensitivities(model, plans, period: float, start: dict, ts: dict) -> dict:
+    """d(output)/dp of a flight's periodic revolution (module doc).
+
+    Parameters
+    ----------
+    model : Model
+        The run's model.
+    plans : list of Plan
+        The parameters with their rebuilt models (:func:`pydriver.analyses.sensitivities.plan`).
+    period : float
+        The revolution period T [s].
+    start : dict
+        The start on the orbit at t = 0 where the monodromy was taken: ``q0``, ``v0``, ``phi``
+        (2 nf, 2 nf) and ``basis`` N (nq, nf).
+    ts : dict
+        The run's last revolution (time series), which selects the peaks and cycles; its times
+        relative to its start are the output times.
+    """
+    t_wall = time.perf_counter()
+    settings = model.solver_settings()
+    points = [_points(pl) for pl in plans]
+    n_par, nq = len(plans), model.nq
+    q0, v0 = start["q0"], start["v0"]
+    zeros = np.zeros((nq, n_par))
+    first = model.core.parameter_sensitivity(settings, 0.0, q0, v0, points, zeros, zeros, [period])
+    d_x = np.vstack([first["sq"][:, -1, :], first["sv"][:, -1, :]])
+    if "phi" in start:
+        basis, phi = start["basis"], start["phi"]
+        nf = basis.shape[1]
+        try:
+            red = np.linalg.solve(np.eye(2 * nf) - phi, np.vstack([basis.T @ d_x[:nq], basis.T @ d_x[nq:]]))
+        except np.linalg.LinAlgError:
+            raise RunError(f"deck '{model.name}': I - Phi is singular (a Floquet multiplier at 1): the periodic "
+                           "state has no sensitivity to the parameters") from None
+        d_start, how = np.vstack([basis @ red[:nf], basis @ red[nf:]]), {"periodic_start": "monodromy"}
+    else:
+        d_start, how = _periodic_start_krylov(model, settings, period, q0, v0, points, d_x)
+    t_rel = np.asarray(ts["t"], float) - float(ts["t"][0])
+    second = model.core.parameter_sensitivity(settings, 0.0, q0, v0, points, d_start[:nq], d_start[nq:], t_rel[1:])
+    # Sample 0 is the start; by periodicity its state and sensitivity are those at T.
+    q = np.column_stack([second["q0"], second["q"]])
+    v = np.column_stack([second["v0"], second["v"]])
+    sq = np.concatenate([second["sq"][:, -1:, :], second["sq"]], axis=1)
+    sv = np.concatenate([second["sv"][:, -1:, :], second["sv"]], axis=1)
+    d_end = np.vstack([second["sq"][:, -1, :], second["sv"][:, -1, :]])
+    if "phi" in start:
+        # In Phi's coordinates: the core completes s_v(0) = N db by the velocity rows' normal part.
+        d_end = np.vstack([basis.T @ d_end[:nq], basis.T @ d_end[nq:]])
+        d_start = red
+    periodicity = float(np.max(np.abs(d_end - d_start)) / max(float(np.max(np.abs(d_start))), 1e-300))
+    outputs = _Outputs(model, ts)
+    values = []
+    for k, pl in enumerate(plans):
+        runs = []
+        for s, w, m in pl.points:
+            mm = m or model
+            qs, vs = q + s * pl.h * sq[:, :, k], v + s * pl.h * sv[:, :, k]
+            runs.append((w, mm, chunk_columns(mm, t_rel, mm.core.sample(t_rel, qs, vs), qs, vs)))
+
+        def d_signal(spec, runs=runs, h=pl.h):
+            return sum(w * _signal(mm, t, spec) for w, mm, t in runs) / h
+
+        values.append(outputs.derivatives(lambda spec: _signal(model, ts, spec), d_signal))
+    sens = _pack(plans, outputs.names, outputs.units, values, [])
+    sens["summary"]["method"] = (
+        "forward sensitivities through the DAE (IDAS, parameter partials by differences of the rebuilt model "
+        "at the fixed state), periodic start by (I - Phi)^-1 dX(T)/dp; peaks at the arg-max sample, damage "
+        "and DEL with the rainflow cycle set held fixed (docs/model.md, \"Design sensitivities of a flight\")")
+    sens["summary"]["periodicity_residual"] = periodicity
+    sens["summary"]["solver"] = {"first": first["stats"], "second": second["stats"], **how}
+    sens["values"] = dict(zip(outputs.names, (float(x) for x in outputs.values)))
+    sens["summary"]["wall_time_s"] = time.perf_counter() - t_wall
+    return sens
