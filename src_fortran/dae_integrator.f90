@@ -9,7 +9,7 @@ module rotorcable_dae_integrator
   use, intrinsic :: iso_c_binding, only: c_int, c_long, c_int64_t, c_double, c_ptr, c_funptr, &
                                          c_loc, c_funloc, c_f_pointer, c_null_ptr, c_associated, c_char
   use rotorcable_kinds, only: dp
-  use rotorcable_errors, only: error_type, fatal_error
+  use rotorcable_errors, only: error_type, fatal_error, sundials_flag_error
   use rotorcable_model, only: model_type, solve_accelerations, switch_times
   use rotorcable_projection, only: project_positions, project_velocities, constraint_rank_margin, &
                                    rank_loss_message, RANK_TOL
@@ -415,11 +415,7 @@ contains
     integer(c_int), intent(in) :: status
     character(len=*), intent(in) :: what
     type(error_type), intent(inout) :: error
-    character(len=16) :: buf
-    if (status < 0 .and. error%code == 0) then
-      write (buf, '(i0)') status
-      call fatal_error(error, 'SUNDIALS '//what//' failed with flag '//trim(buf)//': '//trim(s%ud%ida_message))
-    end if
+    call sundials_flag_error(error, status, what, s%ud%ida_message)
   end subroutine check
 
   !> A SUNDIALS constructor that returned NULL (out of memory, or an invalid context) becomes
@@ -487,17 +483,9 @@ contains
     integer(c_int), value :: code
     type(c_ptr), value :: module_name, function_name, msg, udata
     type(ida_user_data), pointer :: ud
-    character(kind=c_char), pointer :: chars(:)
-    integer :: i
-    if (.not. c_associated(udata) .or. .not. c_associated(msg)) return
+    if (.not. c_associated(udata)) return
     call c_f_pointer(udata, ud)
-    call c_f_pointer(msg, chars, [len(ud%ida_message)])
-    ud%ida_message = ''
-    do i = 1, len(ud%ida_message)
-      if (chars(i) == achar(0)) exit
-      ud%ida_message(i:i) = chars(i)
-    end do
-    if (code == 0) ud%ida_message = ''
+    call copy_solver_message(code, msg, ud%ida_message)
   end subroutine ida_error_handler
 
 end module rotorcable_dae_integrator

@@ -3,7 +3,7 @@
 module rotorcable_errors
   implicit none
   private
-  public :: error_type, fatal_error, clear_error
+  public :: error_type, fatal_error, clear_error, sundials_flag_error
 
   !> Status of an operation: code 0 means success.
   type :: error_type
@@ -27,6 +27,19 @@ contains
     error%key = ''
     if (present(key)) error%key = key
   end subroutine fatal_error
+
+  !> A negative SUNDIALS flag becomes the error, with the solver's own message (captured by
+  !> its error handler); zero and positive flags (success, warnings) leave the status alone.
+  subroutine sundials_flag_error(error, status, what, solver_message)
+    type(error_type), intent(inout) :: error     !< status to set
+    integer, intent(in) :: status                !< the flag a SUNDIALS call returned
+    character(len=*), intent(in) :: what         !< the call, e.g. 'IDASolve'
+    character(len=*), intent(in) :: solver_message  !< the solver's last message
+    character(len=16) :: buf
+    if (status >= 0 .or. error%code /= 0) return
+    write (buf, '(i0)') status
+    call fatal_error(error, 'SUNDIALS '//what//' failed with flag '//trim(buf)//': '//trim(solver_message))
+  end subroutine sundials_flag_error
 
   !> Reset a status to success.
   pure subroutine clear_error(error)

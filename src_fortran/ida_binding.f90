@@ -5,7 +5,8 @@
 !> names and prototypes plus the forward-sensitivity functions (IDASens*) used by
 !> rotorcable_monodromy.
 module rotorcable_ida_binding
-  use, intrinsic :: iso_c_binding, only: c_int, c_long, c_int64_t, c_double, c_ptr, c_funptr
+  use, intrinsic :: iso_c_binding, only: c_int, c_long, c_int64_t, c_double, c_ptr, c_funptr, c_char, &
+                                         c_associated, c_f_pointer
   implicit none
   private
   public :: SUNContext_Create, SUNContext_Free, N_VNew_Serial, N_VDestroy, N_VGetArrayPointer, &
@@ -21,6 +22,7 @@ module rotorcable_ida_binding
 
   public :: sun_linear_solver, sun_linear_solver_ops, SUNLINEARSOLVER_DIRECT, SUNLINEARSOLVER_MATRIX_EMBEDDED, &
             SUNLS_SUCCESS, SUNLS_LUFACT_FAIL
+  public :: copy_solver_message
 
   !> struct _generic_SUNLinearSolver (sundials_linearsolver.h, 6.4): a user-supplied linear
   !> solver is an empty solver whose content and operation pointers are filled in.
@@ -271,5 +273,26 @@ module rotorcable_ida_binding
       real(c_double), value :: hin
     end function IDASetInitStep
   end interface
+
+contains
+
+  !> An error handler's C message into a Fortran buffer (up to its NUL, blank-padded, cut at the
+  !> buffer's length); code 0 (no error) leaves the buffer blank.  Shared by the error handlers
+  !> of every IDA session (dae_integrator.f90, monodromy.f90), which keep the message for the
+  !> Python exception instead of printing it.
+  subroutine copy_solver_message(code, msg, text)
+    integer(c_int), intent(in) :: code          !< the handler's error code
+    type(c_ptr), intent(in) :: msg              !< char* message
+    character(len=*), intent(out) :: text       !< the message
+    character(kind=c_char), pointer :: chars(:)
+    integer :: i
+    text = ''
+    if (code == 0 .or. .not. c_associated(msg)) return
+    call c_f_pointer(msg, chars, [len(text)])
+    do i = 1, len(text)
+      if (chars(i) == achar(0)) exit
+      text(i:i) = chars(i)
+    end do
+  end subroutine copy_solver_message
 
 end module rotorcable_ida_binding

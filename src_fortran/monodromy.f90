@@ -32,7 +32,7 @@ module rotorcable_monodromy
   use, intrinsic :: iso_c_binding, only: c_int, c_long, c_double, c_ptr, c_loc, c_funloc, c_char, &
                                          c_f_pointer, c_associated, c_int64_t, c_null_ptr
   use rotorcable_kinds, only: dp
-  use rotorcable_errors, only: error_type, fatal_error
+  use rotorcable_errors, only: error_type, fatal_error, sundials_flag_error
   use rotorcable_model, only: model_type, solve_accelerations, constraint_jacobian, switch_times
   use rotorcable_linalg, only: null_space, solve_least_norm, dgetrf, lu_solve
   use rotorcable_ggl_residual, only: ggl_residual_dense, ggl_residual_tangent, ggl_jacobian_dense
@@ -43,7 +43,8 @@ module rotorcable_monodromy
                                     IDA_NORMAL, IDAGetNumSteps, IDAGetNumResEvals, IDAGetNumErrTestFails, &
                                     IDAGetNumNonlinSolvConvFails, IDAGetCurrentCj, sun_linear_solver, &
                                     sun_linear_solver_ops, SUNLinSolNewEmpty, SUNLinSolFreeEmpty, &
-                                    SUNLINEARSOLVER_MATRIX_EMBEDDED, SUNLS_SUCCESS, SUNLS_LUFACT_FAIL
+                                    SUNLINEARSOLVER_MATRIX_EMBEDDED, SUNLS_SUCCESS, SUNLS_LUFACT_FAIL, &
+                                    copy_solver_message
   use rotorcable_dae_integrator, only: integrator_settings, solver_stats, consistent_start
   implicit none
   private
@@ -367,17 +368,9 @@ contains
     integer(c_int), value :: code
     type(c_ptr), value :: module_name, function_name, msg, udata
     type(tangent_data), pointer :: td
-    character(kind=c_char), pointer :: chars(:)
-    integer :: i
-    if (.not. c_associated(udata) .or. .not. c_associated(msg)) return
+    if (.not. c_associated(udata)) return
     call c_f_pointer(udata, td)
-    call c_f_pointer(msg, chars, [len(td%ida_message)])
-    td%ida_message = ''
-    do i = 1, len(td%ida_message)
-      if (chars(i) == achar(0)) exit
-      td%ida_message(i:i) = chars(i)
-    end do
-    if (code == 0) td%ida_message = ''
+    call copy_solver_message(code, msg, td%ida_message)
   end subroutine tangent_error_handler
 
   !> Consistent initial sensitivities of the GGL unknowns for the 2 nf unit directions of
@@ -453,11 +446,7 @@ contains
     character(len=*), intent(in) :: what
     type(tangent_data), intent(in) :: td
     type(error_type), intent(inout) :: error
-    character(len=16) :: buf
-    if (status < 0 .and. error%code == 0) then
-      write (buf, '(i0)') status
-      call fatal_error(error, 'SUNDIALS '//what//' failed with flag '//trim(buf)//': '//trim(td%ida_message))
-    end if
+    call sundials_flag_error(error, status, what, td%ida_message)
   end subroutine check
 
 end module rotorcable_monodromy

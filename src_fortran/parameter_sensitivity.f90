@@ -24,7 +24,7 @@ module rotorcable_parameter_sensitivity
   use, intrinsic :: iso_c_binding, only: c_int, c_long, c_double, c_ptr, c_loc, c_funloc, &
                                          c_f_pointer, c_associated, c_int64_t, c_null_ptr
   use rotorcable_kinds, only: dp
-  use rotorcable_errors, only: error_type, fatal_error
+  use rotorcable_errors, only: error_type, fatal_error, sundials_flag_error
   use rotorcable_model, only: model_type, solve_accelerations, constraint_jacobian
   use rotorcable_linalg, only: solve_least_norm
   use rotorcable_ggl_residual, only: ida_user_data, ggl_residual_dense, ggl_residual_tangent
@@ -322,11 +322,7 @@ contains
     character(len=*), intent(in) :: what
     type(dae_session), intent(in) :: s
     type(error_type), intent(inout) :: error
-    character(len=16) :: buf
-    if (status < 0 .and. error%code == 0) then
-      write (buf, '(i0)') status
-      call fatal_error(error, 'SUNDIALS '//what//' failed with flag '//trim(buf)//': '//trim(s%ud%ida_message))
-    end if
+    call sundials_flag_error(error, status, what, s%ud%ida_message)
   end subroutine check
 
 end module rotorcable_parameter_sensitivity
