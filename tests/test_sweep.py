@@ -169,22 +169,46 @@ def wait_for_records(proc, out, n=1, timeout=120):
         time.sleep(0.001)
 
 
+#: The interrupted sweep: six 1-s decay integrations (~0.3 s each on this VM), so that the
+#: window between the first record and the end (~1.5 s with one worker) stays wide on any CPU;
+#: the 24 modal points of the reference sweep take ~5 ms each, a window a fast or an idle
+#: machine closed before the signal arrived (all 24 records written in 0.13 s, measured).
+SLOW_BASE = INPUTS / "uh60_part2_decay.nml"
+SLOW_SET = "springs.c_beta=20:45:6"
+N_SLOW = 6
+
+
+def slow_sweep_cmd(out, *extra):
+    return [sys.executable, "-m", "pydriver", "sweep", str(SLOW_BASE), "--set", SLOW_SET, "--out", str(out),
+            "--quiet", "--no-plots", *extra]
+
+
+@pytest.fixture(scope="module")
+def slow_reference(tmp_path_factory):
+    """The uninterrupted slow sweep, which an interrupted and resumed one must reproduce."""
+    out = tmp_path_factory.mktemp("sweep") / "slow_ref"
+    proc = subprocess.run(slow_sweep_cmd(out), capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert f"{N_SLOW} ok, 0 failed, 0 missing" in proc.stdout
+    return out
+
+
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGINT], ids=["SIGKILL", "SIGINT"])
-def test_killed_sweep_resumes(reference, tmp_path, sig):
+def test_killed_sweep_resumes(slow_reference, tmp_path, sig):
     # The whole process group is signalled, as Ctrl-C or a job scheduler does.  One worker
-    # (--jobs 1) keeps the window between the first record and the end wide (~0.2 s); if the
-    # sweep still won the race it is started again.
+    # (--jobs 1) keeps the window between the first record and the end wide; if the sweep
+    # still won the race it is started again.
     for attempt in range(3):
         out = tmp_path / f"attempt{attempt}"
-        proc = subprocess.Popen(sweep_cmd(out, "--jobs", "1"), start_new_session=True,
+        proc = subprocess.Popen(slow_sweep_cmd(out, "--jobs", "1"), start_new_session=True,
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         wait_for_records(proc, out)
         os.killpg(proc.pid, sig)
         stdout, stderr = proc.communicate(timeout=60)
         before = {p.parent.name: p.stat().st_mtime_ns for p in out.glob("runs/[!.]*/summary.json")}
-        if len(before) < 24:
+        if len(before) < N_SLOW:
             break
-    assert 1 <= len(before) < 24, "the sweep finished before it could be interrupted"
+    assert 1 <= len(before) < N_SLOW, "the sweep finished before it could be interrupted"
     if sig == signal.SIGINT:
         # Ctrl-C: the running deck finishes, sweep.csv holds exactly the finished runs.
         assert proc.returncode == 130, stderr
@@ -192,16 +216,16 @@ def test_killed_sweep_resumes(reference, tmp_path, sig):
         assert [r["id"] for r in read_csv(out / "sweep.csv")] == sorted(before)
     else:
         assert proc.returncode == -signal.SIGKILL
-    resumed = subprocess.run(sweep_cmd(out), capture_output=True, text=True)
+    resumed = subprocess.run(slow_sweep_cmd(out), capture_output=True, text=True)
     assert resumed.returncode == 0, resumed.stderr
-    assert f"({24 - len(before)} run now, {len(before)} done before)" in resumed.stdout
+    assert f"({N_SLOW - len(before)} run now, {len(before)} done before)" in resumed.stdout
     # Finished decks were not recomputed: their records are the same files.
     for id_, mtime in before.items():
         assert (out / "runs" / id_ / "summary.json").stat().st_mtime_ns == mtime, id_
     assert not list((out / "runs").glob(".*"))     # temporaries of killed runs cleaned up
     rows = read_csv(out / "sweep.csv")
-    assert len(rows) == 24 and len({r["id"] for r in rows}) == 24   # none lost, none twice
-    assert_same_rows(rows, read_csv(reference / "sweep.csv"))
+    assert len(rows) == N_SLOW and len({r["id"] for r in rows}) == N_SLOW   # none lost, none twice
+    assert_same_rows(rows, read_csv(slow_reference / "sweep.csv"))
 
 
 def test_failed_deck_lands_in_error_column(tmp_path):
