@@ -200,8 +200,11 @@ def test_killed_sweep_resumes(slow_reference, tmp_path, sig):
     # still won the race it is started again.
     for attempt in range(3):
         out = tmp_path / f"attempt{attempt}"
+        # SIGINT at its default in the child: a shell running the suite in the background
+        # (`cmd &`, nohup) ignores SIGINT, the sweep would inherit that and never see Ctrl-C.
         proc = subprocess.Popen(slow_sweep_cmd(out, "--jobs", "1"), start_new_session=True,
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
         wait_for_records(proc, out)
         os.killpg(proc.pid, sig)
         stdout, stderr = proc.communicate(timeout=60)
