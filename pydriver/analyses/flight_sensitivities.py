@@ -29,9 +29,12 @@ sensitivities of a flight"):
    set (a new small cycle, a reversal moving to a neighbouring sample, the worst point around
    the jacket moving to another of the circumferential points).
 
-Parameters that move the constraints (clamp positions and angles, the cable's length, the
-rotor centre) would change the consistent start itself and are refused for flight runs, as is
-the rotor speed (it changes the revolution period): ``DeckError`` on ``&design parameters``.
+Parameters that move the constraint (clamp B's pose, the cable's length) need nothing of their
+own: F_p carries g_p, the core's least-norm correction puts the start sensitivity's particular
+part normal to the constraint manifold (orthogonal to the monodromy's basis N), and the
+periodicity of the tangent coordinates is step 2's formula unchanged (docs/model.md).  The rotor
+speed changes the revolution period and is refused for flight runs: ``DeckError`` on
+``&design parameters``.
 """
 
 from __future__ import annotations
@@ -47,19 +50,11 @@ from pydriver.analyses.fatigue_loads import _components, _record, sn_curve
 from pydriver.analyses.sensitivities import _pack
 from pydriver.errors import DeckError, RunError
 
-#: Keys whose change moves a support or changes the period: refused for flight runs.
-REFUSED = {"chain.total_length": "moves clamp B relative to the cable (the constraint)",
-           "chain.body_length": "moves clamp B relative to the cable (the constraint)",
-           "rotor.rpm": "changes the revolution period", "loads.rotor_rpm": "changes the revolution period",
-           "rotor.centre": "moves the blade and clamp B", "loads.rotor_offset": "moves the blade and clamp B"}
-REFUSED_GROUPS = {"clamp_a": "moves support A (the constraint)", "clamp_b": "moves clamp B (the constraint)",
-                  "blade": "moves clamp B with the blade (the constraint)"}
-#: The constraint residual g of the rebuilt models at one state differs by more than this [m, rad]
-#: only when the parameter moves a support (identical arithmetic otherwise).
-CONSTRAINT_TOL = 1.0e-12
-#: Peak loads per joint: (quantity, time-series unit suffix, unit).
+#: Keys whose change changes the period: refused for flight runs.
+REFUSED = {"rotor.rpm": "changes the revolution period", "loads.rotor_rpm": "changes the revolution period"}
 #: Krylov iterations (one revolution each) for the periodic start's sensitivities without a monodromy.
 MAX_KRYLOV = 60
+#: Peak loads per joint: (quantity, time-series unit suffix, unit).
 PEAK_LOADS = (("bending", "_Nm", "Nm"), ("axial", "_N", "N"), ("torsion", "_Nm", "Nm"), ("strain", "", "-"))
 
 
@@ -68,26 +63,12 @@ def check_flight_plans(model, plans) -> None:
     for pl in plans:
         p = pl.parameter
         dotted = f"{p.group}.{p.key}"
-        reason = REFUSED.get(dotted) or REFUSED_GROUPS.get(p.group)
-        if reason is None:
-            reason = _moves_constraint(model, pl)
+        reason = REFUSED.get(dotted)
         if reason:
             raise DeckError(model.name, "design", "parameters",
                             f"'{p.name}' {reason}: flight sensitivities are given for parameters that leave "
-                            "the supports and the period alone in this version (docs/model.md, \"Design "
+                            "the period alone in this version (docs/model.md, \"Design "
                             "sensitivities of a flight\")")
-
-
-def _moves_constraint(model, pl) -> str | None:
-    """A reason if the rebuilt models' constraint residuals differ at the deck's start shape."""
-    q, lam = model.q0, np.zeros(model.nc)
-    if model.nc == 0:
-        return None
-    for t in 0.25 * np.arange(4):        # a moving clamp: a few times [s]
-        gs = [(m or model).core.static_system(q, lam, t=t)["g"] for _, _, m in pl.points]
-        if max(float(np.max(np.abs(g - gs[0]))) for g in gs) > CONSTRAINT_TOL:
-            return "moves the clamp constraint"
-    return None
 
 
 def _unit(name: str) -> str:
