@@ -295,9 +295,10 @@ def _keys() -> list[Key]:
             doc="deck keys to differentiate the results by: 'group.key' (a scalar, or every element of a "
                 "per-body or per-joint key moved together) or 'group.key(i)' (element i); any key this "
                 "reference marks differentiable, at most 64; static runs write d(reactions and joint loads)/"
-                "d(parameter), modal runs d(frequency)/d(parameter), flight runs d(reaction extremes, peak and "
-                "amplitude joint loads, damage per hour and DELs)/d(parameter) of the periodic revolution (not "
-                "for keys that change the period: the rotor speed) to sensitivities.csv (docs/model.md, "
+                "d(parameter), modal runs d(frequency)/d(parameter), flight and dynamic runs d(reaction extremes, "
+                "peak and amplitude joint loads, damage per hour and DELs)/d(parameter) of the periodic "
+                "revolution or the whole record (flight: not for the rotor speed, which changes the period) "
+                "to sensitivities.csv (docs/model.md, "
                 "\"Design sensitivities\")",
             allowed="1 ... 64 names of differentiable keys",
             note="a name is a key of this reference marked differentiable, as group.key or group.key(i)"))

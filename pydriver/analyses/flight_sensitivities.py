@@ -79,7 +79,8 @@ class _Outputs:
     """The outputs of a flight's revolution and, for each, how its derivative follows from the
     derivative of the time series (selection by the base run, held fixed)."""
 
-    def __init__(self, model, ts):
+    def __init__(self, model, ts, periodic: bool = True):
+        self.periodic = periodic
         self.names, self.units, self.values, self.rules = [], [], [], []
         nb = model.n_bodies
         for name in REACTION_NAMES[:12 if model.nc else 6]:
@@ -107,7 +108,8 @@ class _Outputs:
         """Per joint: damage per flight hour and DEL at its worst point; DELs of the reactions."""
         f = model.deck.values["fatigue"]
         sn = sn_curve(model.deck)
-        record = _record(model, ts, periodic=True)
+        periodic = self.periodic
+        record = _record(model, ts, periodic=periodic)
         points = int(f["circumferential_points"])
         phi = 2.0 * np.pi * np.arange(points) / points
         radius = 0.5 * joint_geometry(model)["diameter"]
@@ -117,24 +119,24 @@ class _Outputs:
             best = None
             for k in range(points):
                 x = scale * (np.sin(phi[k]) * a - np.cos(phi[k]) * b)
-                damage = fatigue.miner_damage(fatigue.cycles(x, periodic=True), sn)
+                damage = fatigue.miner_damage(fatigue.cycles(x, periodic=periodic), sn)
                 if best is None or damage > best[0]:
                     best = (damage, k, x)
             damage, k, x = best
-            cyc = _cycle_set(x)
+            cyc = _cycle_set(x, periodic)
             signal = ("point", j, float(phi[k]))
             self._add(f"damage_per_hour{j}", "1/h", damage * record["per_hour"],
                       ("damage", signal, cyc, sn, record["per_hour"]))
             self._add(f"del_amplitude{j}", unit,
-                      fatigue.damage_equivalent_amplitude(fatigue.cycles(x, periodic=True), sn.exponent,
+                      fatigue.damage_equivalent_amplitude(fatigue.cycles(x, periodic=periodic), sn.exponent,
                                                           record["n_equivalent"]),
                       ("del", signal, cyc, sn.exponent, record["n_equivalent"]))
         for name in REACTION_NAMES[:12 if model.nc else 6]:
             x = ts[name]
             self._add(f"del_{name}", _unit(name),
-                      fatigue.damage_equivalent_amplitude(fatigue.cycles(x, periodic=True), sn.exponent,
+                      fatigue.damage_equivalent_amplitude(fatigue.cycles(x, periodic=periodic), sn.exponent,
                                                           record["n_equivalent"]),
-                      ("del", ("column", name), _cycle_set(x), sn.exponent, record["n_equivalent"]))
+                      ("del", ("column", name), _cycle_set(x, periodic), sn.exponent, record["n_equivalent"]))
 
     def frozen(self, signal_of) -> np.ndarray:
         """The outputs of another time series (``signal_of(spec)``) with this one's selection
@@ -204,14 +206,17 @@ class _CycleSet:
         self.start, self.end, self.counts = start, end, counts
 
 
-def _cycle_set(x) -> _CycleSet:
-    """The cycles of :func:`pydriver.fatigue.cycles` (periodic) with their reversal samples:
-    the closed history is x rotated to its maximum (``close_period``), so its sample i is the
-    signal's sample (i0 + i) mod n."""
+def _cycle_set(x, periodic: bool = True) -> _CycleSet:
+    """The cycles of :func:`pydriver.fatigue.cycles` with their reversal samples.  Periodic: the
+    closed history is x rotated to its maximum (``close_period``), so its sample i is the
+    signal's sample (i0 + i) mod n.  Otherwise the history is x itself, its residue half cycles."""
     x = np.asarray(x, float)
-    n, i0 = x.size, int(np.argmax(x))
-    closed = fatigue.close_period(x)
+    n, i0 = x.size, (int(np.argmax(x)) if periodic else 0)
+    closed = fatigue.close_period(x) if periodic else x
     found = [(r, m, c, a, b) for r, m, c, a, b in fatigue.rainflow.extract_cycles(closed) if r > 0.0]
+    if not periodic:
+        arr = np.array([[a, b, c] for _, _, c, a, b in found]).reshape(-1, 3)
+        return _CycleSet(arr[:, 0].astype(int), arr[:, 1].astype(int), arr[:, 2])
     # Pair the half cycles over the same two extremes into full cycles (fatigue._pair_half_cycles).
     out, pending = [], {}
     for r, m, c, a, b in found:
@@ -277,6 +282,26 @@ def flight_selections(model, ts) -> dict:
             keep = share >= 1.0e-9 * max(float(np.sum(share)), 1e-300)
             out[name] = (rule[1], tuple(cyc.start[keep]), tuple(cyc.end[keep]), tuple(cyc.counts[keep]))
     return out
+
+
+def output_derivatives(model, plans, outputs: _Outputs, ts: dict, t, q, v, sq, sv) -> list[np.ndarray]:
+    """d(output)/dp of every plan from the state sensitivities: central differences of the core's
+    sample function along (q + e s_q, v + e s_v, p + e) on the rebuilt models (no re-solve), fed
+    to the outputs' rules (:meth:`_Outputs.derivatives`).  ``t`` are the sample times, ``q``, ``v``
+    (nq, nt) the states and ``sq``, ``sv`` (nq, nt, np) their sensitivities."""
+    values = []
+    for k, pl in enumerate(plans):
+        runs = []
+        for s, w, m in pl.points:
+            mm = m or model
+            qs, vs = q + s * pl.h * sq[:, :, k], v + s * pl.h * sv[:, :, k]
+            runs.append((w, mm, chunk_columns(mm, t, mm.core.sample(t, qs, vs), qs, vs)))
+
+        def d_signal(spec, runs=runs, h=pl.h):
+            return sum(w * _signal(mm, c, spec) for w, mm, c in runs) / h
+
+        values.append(outputs.derivatives(lambda spec: _signal(model, ts, spec), d_signal))
+    return values
 
 
 def _points(pl) -> tuple:
@@ -381,18 +406,7 @@ def flight_sensitivities(model, plans, period: float, start: dict, ts: dict) -> 
         d_start = red
     periodicity = float(np.max(np.abs(d_end - d_start)) / max(float(np.max(np.abs(d_start))), 1e-300))
     outputs = _Outputs(model, ts)
-    values = []
-    for k, pl in enumerate(plans):
-        runs = []
-        for s, w, m in pl.points:
-            mm = m or model
-            qs, vs = q + s * pl.h * sq[:, :, k], v + s * pl.h * sv[:, :, k]
-            runs.append((w, mm, chunk_columns(mm, t_rel, mm.core.sample(t_rel, qs, vs), qs, vs)))
-
-        def d_signal(spec, runs=runs, h=pl.h):
-            return sum(w * _signal(mm, t, spec) for w, mm, t in runs) / h
-
-        values.append(outputs.derivatives(lambda spec: _signal(model, ts, spec), d_signal))
+    values = output_derivatives(model, plans, outputs, ts, t_rel, q, v, sq, sv)
     sens = _pack(plans, outputs.names, outputs.units, values, [])
     sens["summary"]["method"] = (
         "forward sensitivities through the DAE (IDAS, parameter partials by differences of the rebuilt model "
