@@ -297,8 +297,7 @@ def _keys() -> list[Key]:
                 "reference marks differentiable, at most 64; static runs write d(reactions and joint loads)/"
                 "d(parameter), modal runs d(frequency)/d(parameter), flight and dynamic runs d(reaction extremes, "
                 "peak and amplitude joint loads, damage per hour and DELs)/d(parameter) of the periodic "
-                "revolution or the whole record (flight: not for the rotor speed, which changes the period) "
-                "to sensitivities.csv (docs/model.md, "
+                "revolution (at fixed blade azimuth) or the whole record to sensitivities.csv (docs/model.md, "
                 "\"Design sensitivities\")",
             allowed="1 ... 64 names of differentiable keys",
             note="a name is a key of this reference marked differentiable, as group.key or group.key(i)"))

@@ -32,9 +32,20 @@ sensitivities of a flight"):
 Parameters that move the constraint (clamp B's pose, the cable's length) need nothing of their
 own: F_p carries g_p, the core's least-norm correction puts the start sensitivity's particular
 part normal to the constraint manifold (orthogonal to the monodromy's basis N), and the
-periodicity of the tangent coordinates is step 2's formula unchanged (docs/model.md).  The rotor
-speed changes the revolution period and is refused for flight runs: ``DeckError`` on
-``&design parameters``.
+periodicity of the tangent coordinates is step 2's formula unchanged (docs/model.md).
+
+**The rotor speed** p changes the period T = 60/p, so the periodic orbit is periodic at fixed
+blade azimuth psi = Omega t, not at fixed t.  With z(psi; p) the orbit against azimuth,
+y(t; p) = z(Omega t; p), and the fixed-time sensitivity s = dy/dp (the DAE's, with F_p of the
+models rebuilt at p +- h as for any parameter) is
+
+    s(t) = w(t) + (t/p) y'(t),      w = dz/dp at fixed azimuth, periodic,
+
+since Omega is proportional to p.  So s is not periodic: s(T) = s(0) + (T/p) y'(0), and step 2
+solves (I - Phi) dx* = N^T (dX(T)/dp - (T/p) y'(0)) (GMRES alike); the normal parts agree, for
+G (T/p) v = -(T/p) g_t = -T g_psi = the change of g_p over the revolution.  The outputs are
+sampled at fixed azimuth: w = s - (t/p) (v, v') at each sample (v' from the acceleration-level
+solve), and the model at p + e samples at the time t p/(p + e).
 """
 
 from __future__ import annotations
@@ -48,27 +59,20 @@ from pydriver.analyses.common import REACTION_NAMES, joint_geometry
 from pydriver.analyses.dynamics import chunk_columns
 from pydriver.analyses.fatigue_loads import _components, _record, sn_curve
 from pydriver.analyses.sensitivities import _pack
-from pydriver.errors import DeckError, RunError
+from pydriver.errors import RunError
 
-#: Keys whose change changes the period: refused for flight runs.
-REFUSED = {"rotor.rpm": "changes the revolution period", "loads.rotor_rpm": "changes the revolution period"}
+#: The rotor speed: it changes the revolution period, so its sensitivities are taken at fixed
+#: blade azimuth (module doc).
+ROTOR_SPEED = ("rotor.rpm", "loads.rotor_rpm")
 #: Krylov iterations (one revolution each) for the periodic start's sensitivities without a monodromy.
 MAX_KRYLOV = 60
 #: Peak loads per joint: (quantity, time-series unit suffix, unit).
 PEAK_LOADS = (("bending", "_Nm", "Nm"), ("axial", "_N", "N"), ("torsion", "_Nm", "Nm"), ("strain", "", "-"))
 
 
-def check_flight_plans(model, plans) -> None:
-    """Refuse parameters whose flight sensitivities this version does not give (module doc)."""
-    for pl in plans:
-        p = pl.parameter
-        dotted = f"{p.group}.{p.key}"
-        reason = REFUSED.get(dotted)
-        if reason:
-            raise DeckError(model.name, "design", "parameters",
-                            f"'{p.name}' {reason}: flight sensitivities are given for parameters that leave "
-                            "the period alone in this version (docs/model.md, \"Design "
-                            "sensitivities of a flight\")")
+def is_rotor_speed(pl) -> bool:
+    """Whether a plan varies the rotor speed."""
+    return f"{pl.parameter.group}.{pl.parameter.key}" in ROTOR_SPEED
 
 
 def _unit(name: str) -> str:
@@ -138,10 +142,11 @@ class _Outputs:
                                                           record["n_equivalent"]),
                       ("del", ("column", name), _cycle_set(x, periodic), sn.exponent, record["n_equivalent"]))
 
-    def frozen(self, signal_of) -> np.ndarray:
+    def frozen(self, signal_of, per_hour: float | None = None) -> np.ndarray:
         """The outputs of another time series (``signal_of(spec)``) with this one's selection
-        held: the samples of the extremes, the cycle set, the point around the jacket.  Its
-        derivative is what :meth:`derivatives` gives."""
+        held: the samples of the extremes, the cycle set, the point around the jacket; with
+        ``per_hour`` its own records per flight hour (another rotor speed).  Its derivative is
+        what :meth:`derivatives` gives."""
         out = np.zeros(len(self.rules))
         for i, rule in enumerate(self.rules):
             kind = rule[0]
@@ -157,9 +162,9 @@ class _Outputs:
                 x = signal_of(spec)
                 amp, _ = _amplitudes(x, x, cyc)
                 if kind == "damage":
-                    sn, per_hour = rest
+                    sn, own_per_hour = rest
                     live = amp > sn.endurance_amplitude
-                    out[i] = per_hour * float(np.sum(cyc.counts[live] * (amp[live] / sn.reference_amplitude)
+                    out[i] = (own_per_hour if per_hour is None else per_hour) * float(np.sum(cyc.counts[live] * (amp[live] / sn.reference_amplitude)
                                                      ** sn.exponent)) / sn.reference_cycles
                 else:
                     m, n_eq = rest
@@ -259,7 +264,8 @@ def flight_outputs_frozen(model, ts, other_model, other_ts) -> np.ndarray:
     """The outputs of ``other_ts`` (a run of ``other_model``) with the selection of ``ts`` held
     (:meth:`_Outputs.frozen`): differences of these are the reference of the sensitivities
     across a change of selection."""
-    return _Outputs(model, ts).frozen(lambda spec: _signal(other_model, other_ts, spec))
+    per_hour = _record(other_model, other_ts, periodic=True)["per_hour"] if "fatigue" in model.deck.groups else None
+    return _Outputs(model, ts).frozen(lambda spec: _signal(other_model, other_ts, spec), per_hour)
 
 
 def flight_selections(model, ts) -> dict:
@@ -284,18 +290,21 @@ def flight_selections(model, ts) -> dict:
     return out
 
 
-def output_derivatives(model, plans, outputs: _Outputs, ts: dict, t, q, v, sq, sv) -> list[np.ndarray]:
+def output_derivatives(model, plans, outputs: _Outputs, ts: dict, t, q, v, sq, sv, speed=None) -> list[np.ndarray]:
     """d(output)/dp of every plan from the state sensitivities: central differences of the core's
     sample function along (q + e s_q, v + e s_v, p + e) on the rebuilt models (no re-solve), fed
     to the outputs' rules (:meth:`_Outputs.derivatives`).  ``t`` are the sample times, ``q``, ``v``
-    (nq, nt) the states and ``sq``, ``sv`` (nq, nt, np) their sensitivities."""
+    (nq, nt) the states and ``sq``, ``sv`` (nq, nt, np) their sensitivities.  Where ``speed[k]``
+    (the rotor speed p) the samples are at fixed blade azimuth: the model at p + e samples at the
+    time t p / (p + e)."""
     values = []
     for k, pl in enumerate(plans):
         runs = []
         for s, w, m in pl.points:
             mm = m or model
             qs, vs = q + s * pl.h * sq[:, :, k], v + s * pl.h * sv[:, :, k]
-            runs.append((w, mm, chunk_columns(mm, t, mm.core.sample(t, qs, vs), qs, vs)))
+            tt = t * pl.parameter.value / (pl.parameter.value + s * pl.h) if speed is not None and speed[k] else t
+            runs.append((w, mm, chunk_columns(mm, tt, mm.core.sample(tt, qs, vs), qs, vs)))
 
         def d_signal(spec, runs=runs, h=pl.h):
             return sum(w * _signal(mm, c, spec) for w, mm, c in runs) / h
@@ -380,7 +389,12 @@ def flight_sensitivities(model, plans, period: float, start: dict, ts: dict) -> 
     q0, v0 = start["q0"], start["v0"]
     zeros = np.zeros((nq, n_par))
     first = model.core.parameter_sensitivity(settings, 0.0, q0, v0, points, zeros, zeros, [period])
-    d_x = np.vstack([first["sq"][:, -1, :], first["sv"][:, -1, :]])
+    # The rotor speed's columns: s(T) = s(0) + (T/p) y'(0) (module doc, "The rotor speed").
+    speed = np.array([is_rotor_speed(pl) for pl in plans])
+    rates0 = model.core.consistent_start(q0, v0, 0.0)
+    secular = np.outer(np.concatenate([rates0["v"], rates0["vdot"]]),
+                       np.where(speed, period / np.array([pl.parameter.value for pl in plans]), 0.0))
+    d_x = np.vstack([first["sq"][:, -1, :], first["sv"][:, -1, :]]) - secular
     if "phi" in start:
         basis, phi = start["basis"], start["phi"]
         nf = basis.shape[1]
@@ -394,19 +408,31 @@ def flight_sensitivities(model, plans, period: float, start: dict, ts: dict) -> 
         d_start, how = _periodic_start_krylov(model, settings, period, q0, v0, points, d_x)
     t_rel = np.asarray(ts["t"], float) - float(ts["t"][0])
     second = model.core.parameter_sensitivity(settings, 0.0, q0, v0, points, d_start[:nq], d_start[nq:], t_rel[1:])
-    # Sample 0 is the start; by periodicity its state and sensitivity are those at T.
+    # Sample 0 is the start, with its consistent start sensitivity.
     q = np.column_stack([second["q0"], second["q"]])
     v = np.column_stack([second["v0"], second["v"]])
-    sq = np.concatenate([second["sq"][:, -1:, :], second["sq"]], axis=1)
-    sv = np.concatenate([second["sv"][:, -1:, :], second["sv"]], axis=1)
-    d_end = np.vstack([second["sq"][:, -1, :], second["sv"][:, -1, :]])
+    sq = np.concatenate([second["sq0"][:, None, :], second["sq"]], axis=1)
+    sv = np.concatenate([second["sv0"][:, None, :], second["sv"]], axis=1)
+    d_end = np.vstack([second["sq"][:, -1, :], second["sv"][:, -1, :]]) - secular
+    if np.any(speed):
+        # At a fixed blade azimuth: w = s - (t/p) y' is the periodic part (module doc).
+        vdot = np.column_stack([model.core.consistent_start(q[:, k], v[:, k], t)["vdot"]
+                                for k, t in enumerate(t_rel)])
+        for k in np.flatnonzero(speed):
+            c = t_rel / plans[k].parameter.value
+            sq[:, :, k] -= c * v
+            sv[:, :, k] -= c * vdot
     if "phi" in start:
         # In Phi's coordinates: the core completes s_v(0) = N db by the velocity rows' normal part.
         d_end = np.vstack([basis.T @ d_end[:nq], basis.T @ d_end[nq:]])
         d_start = red
     periodicity = float(np.max(np.abs(d_end - d_start)) / max(float(np.max(np.abs(d_start))), 1e-300))
     outputs = _Outputs(model, ts)
-    values = output_derivatives(model, plans, outputs, ts, t_rel, q, v, sq, sv)
+    values = output_derivatives(model, plans, outputs, ts, t_rel, q, v, sq, sv, speed)
+    per_hour = np.array([rule[0] == "damage" for rule in outputs.rules])
+    for k in np.flatnonzero(speed):
+        # Damage per hour = damage per revolution x 60 p revolutions per hour.
+        values[k] = values[k] + np.where(per_hour, np.asarray(outputs.values) / plans[k].parameter.value, 0.0)
     sens = _pack(plans, outputs.names, outputs.units, values, [])
     sens["summary"]["method"] = (
         "forward sensitivities through the DAE (IDAS, parameter partials by differences of the rebuilt model "

@@ -104,9 +104,6 @@ def plan(model) -> list[Plan]:
                                     f"{p.value:g}: {err.group}.{err.key}: {err.reason}") from None
             points.append((s, w, models.get(s)))
         out.append(Plan(p, h, scheme, points))
-    if model.analysis == "flight":
-        from pydriver.analyses.flight_sensitivities import check_flight_plans
-        check_flight_plans(model, out)
     return out
 
 
