@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pydriver.components import add_loads
 from pydriver.core import CoreModel
 from pydriver.deckfile import Deck
 from pydriver.motions import blade_azimuth0, rotor, support_motion
@@ -149,23 +150,9 @@ def build(deck: Deck) -> tuple[CoreModel, dict]:
                                      np.asarray(deck["shape.beta_rate_deg"]) * DEG)
     first_coord = _first_coords(b.locked, {"zy": 2, "xy": 2, "xyz": 3}[deck["chain.joint"]])
     c, d, rest = joint_constants(deck, b)
-    if rotation_vector_springs(deck, b):
-        # Per free joint (K_x, K_y, K_z, D_x, D_y, D_z) about its child's axes; rest straight.
-        core.add_load("rotation_springs", reals=np.column_stack([c.reshape(-1, 3), d.reshape(-1, 3)]).ravel(),
-                      context="&cable")
-    elif np.any(c != 0.0) or np.any(d != 0.0):
-        core.add_load("joint_springs", reals=np.concatenate([c, d, rest]), context="&springs")
-    g = np.asarray(deck["loads.gravity"], float)
-    if np.any(g != 0.0):
-        core.add_load("gravity", reals=g)
-    if deck["loads.pulse_body"] > 0:
-        core.add_load("pulse", ints=[deck["loads.pulse_body"]],
-                      reals=list(deck["loads.pulse_force"]) + [deck["loads.pulse_start"], deck["loads.pulse_end"]])
-    if np.any(deck["loads.tip_force"] != 0.0):
-        core.add_load("tip_force", reals=deck["loads.tip_force"])
-    if "drag" in deck.groups:
-        stream = np.asarray(deck["drag.stream_velocity"], float) - np.array([deck["drag.forward_speed"], 0.0, 0.0])
-        core.add_load("drag", reals=np.concatenate([[deck["drag.air_density"]], stream, deck["drag.cd"]]))
+    # Every load from its declaration in the component registry (pydriver/components.py).
+    add_loads(core, deck, {"stiffness": c, "damping": d, "rest": rest,
+                           "rotation_vector": rotation_vector_springs(deck, b)})
     rot = rotor(deck)
     if rot is not None:
         core.set_rotor(rot["profile"], rot["centre"], rot["params"], rot["hub"], rot["body_couples"])

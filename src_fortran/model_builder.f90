@@ -9,6 +9,7 @@ module rotorcable_model_builder
   use rotorcable_model, only: model_type, model_init
   use rotorcable_loads_type, only: load_slot
   use rotorcable_loads_factory, only: new_load
+  use rotorcable_parameter_block, only: parameter_block
   use rotorcable_supports_clamp, only: clamp_support, new_clamp
   use rotorcable_projection, only: clamp_reach
   use rotorcable_motion_rigid_motion, only: rigid_motion
@@ -45,17 +46,16 @@ contains
   end subroutine build_chain
 
   !> Append a load built by the load factory.
-  subroutine build_load(model, kind, ints, reals, error)
+  subroutine build_load(model, kind, params, error)
     type(model_type), intent(inout) :: model  !< model with its chain
     character(len=*), intent(in) :: kind      !< load kind
-    integer, intent(in) :: ints(:)            !< integer parameters
-    real(dp), intent(in) :: reals(:)          !< real parameters
+    type(parameter_block), intent(in) :: params  !< its parameters by name
     type(error_type), intent(inout) :: error  !< status
     type(load_slot), allocatable :: grown(:)
     integer :: n
     n = size(model%loads)
     allocate (grown(n + 1))
-    call new_load(kind, grown(n + 1), model%chain, ints, reals, error)
+    call new_load(kind, grown(n + 1), model%chain, params, error)
     if (error%code /= 0) return
     grown(1:n) = model%loads
     call move_alloc(grown, model%loads)

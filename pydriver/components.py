@@ -1,0 +1,142 @@
+"""The component registry: every load of a model declares here, once, the parameters its
+Fortran constructor reads by name (name, unit, shape, default, and the deck keys that feed it),
+and when a deck has it.  :mod:`pydriver.assembly` packs each present component from its
+declaration, :mod:`pydriver.core` sends the values as the component's parameter block, and the
+factory (``src_fortran/loads/factory.f90``) hands the block to the constructor, which asks for
+each value by name (``src_fortran/parameter_block.f90``).  No layout is written by position.
+
+The deck keys themselves, with their ranges and defaults, stay in :mod:`pydriver.schema`, the
+one deck schema; a parameter fed straight by a key takes that key's value (and default), one fed
+by several keys, or by what assembly derived from them (the joint constants), says how.
+
+A new load: its Fortran file, its lines in ``loads/factory.f90`` and ``src_fortran/meson.build``,
+its :class:`Component` in :data:`LOADS`, and its keys in the schema (docs/architecture.md).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from pydriver.deckfile import Deck
+from pydriver.schema import lookup
+
+#: Sizes of the shapes a parameter may have, given the number of bodies n (None: any size, the
+#: Fortran constructor checks it against what it knows, e.g. the number of coordinates).
+SHAPES = {"scalar": lambda n: 1, "vec3": lambda n: 3, "body": lambda n: n, "coords": lambda n: None,
+          "free_joints x 3": lambda n: None, "list": lambda n: None}
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One named value of a component's parameter block."""
+
+    name: str                     #: what the Fortran constructor asks for
+    unit: str                     #: unit of the value in the block (SI, radians)
+    shape: str                    #: a key of SHAPES
+    keys: tuple = ()              #: the deck keys ('group.key') that feed it
+    #: the value from the deck and what assembly built (``built``, below); None: the one key's value
+    derive: Callable | None = None
+    integer: bool = False         #: an integer array (a body index) rather than reals
+    doc: str = ""
+
+    @property
+    def default(self):
+        """The default of a parameter fed straight by one key: that key's schema default."""
+        if self.derive is None and len(self.keys) == 1:
+            group, name = self.keys[0].split(".")
+            return lookup(group, name).default
+        return None
+
+    def value(self, deck: Deck, built: dict) -> np.ndarray:
+        """The parameter's value for this deck, as a numpy array of its size."""
+        raw = self.derive(deck, built) if self.derive is not None else deck[self.keys[0]]
+        a = np.asarray(raw, dtype=np.int32 if self.integer else float).reshape(-1)
+        size = SHAPES[self.shape](deck.n_bodies)
+        if size is not None and a.size != size:
+            raise ValueError(f"parameter {self.name}: {a.size} values for shape {self.shape} ({size})")
+        return a
+
+
+@dataclass(frozen=True)
+class Component:
+    """A load (or support) kind of the core's factory with its parameters."""
+
+    kind: str                     #: the factory's name for it
+    parameters: tuple             #: its Parameter declarations
+    present: Callable             #: (deck, built) -> whether the deck has it
+    context: str = ""             #: prefixed to the core's messages about it ('&springs')
+    doc: str = ""
+
+    def pack(self, deck: Deck, built: dict) -> dict:
+        """``{name: value}`` of every parameter, for :meth:`pydriver.core.CoreModel.add_load`."""
+        return {p.name: p.value(deck, built) for p in self.parameters}
+
+
+def _nonzero(key: str) -> Callable:
+    return lambda deck, built: bool(np.any(np.asarray(deck[key], float) != 0.0))
+
+
+def _built(name: str) -> Callable:
+    return lambda deck, built: built[name]
+
+
+def _drag_stream(deck: Deck, built: dict) -> np.ndarray:
+    # Forward flight at V is a free stream of -V along the deck's x axis.
+    return np.asarray(deck["drag.stream_velocity"], float) - np.array([deck["drag.forward_speed"], 0.0, 0.0])
+
+
+#: What assembly hands the derivations (``built``): ``stiffness``, ``damping``, ``rest`` per
+#: coordinate and ``rotation_vector`` (pydriver.assembly.joint_constants and
+#: rotation_vector_springs).  The loads in the order they are added to the model.
+LOADS: tuple[Component, ...] = (
+    Component(
+        "rotation_springs", context="&cable",
+        doc="springs and dampers on each joint's rotation vector (physical cable parameters, xyz joints)",
+        present=_built("rotation_vector"),
+        parameters=(
+            Parameter("stiffness", "Nm/rad", "free_joints x 3", ("cable.ei", "cable.gj"), _built("stiffness"),
+                      doc="K_x, K_y, K_z per free joint: EI/l, EI/l, GJ/l"),
+            Parameter("damping", "Nms/rad", "free_joints x 3", ("cable.damping_time",), _built("damping"),
+                      doc="damping_time times the stiffness"))),
+    Component(
+        "joint_springs", context="&springs",
+        doc="linear springs and dampers on every joint coordinate",
+        present=lambda deck, built: not built["rotation_vector"] and bool(
+            np.any(built["stiffness"] != 0.0) or np.any(built["damping"] != 0.0)),
+        parameters=(
+            Parameter("stiffness", "Nm/rad", "coords", ("springs.c_gamma", "springs.c_beta", "springs.c_twist",
+                                                        "cable.ei", "cable.gj"), _built("stiffness")),
+            Parameter("damping", "Nms/rad", "coords", ("springs.d_gamma", "springs.d_beta", "springs.d_twist",
+                                                       "cable.damping_time"), _built("damping")),
+            Parameter("rest", "rad", "coords", ("springs.rest_gamma_deg", "springs.rest_beta_deg"), _built("rest")))),
+    Component(
+        "gravity", present=_nonzero("loads.gravity"), doc="uniform gravity",
+        parameters=(Parameter("g", "m/s^2", "vec3", ("loads.gravity",)),)),
+    Component(
+        "pulse", present=lambda deck, built: deck["loads.pulse_body"] > 0, doc="rectangular force pulse on one body",
+        parameters=(
+            Parameter("body", "-", "scalar", ("loads.pulse_body",), integer=True),
+            Parameter("force", "N", "vec3", ("loads.pulse_force",)),
+            Parameter("t_start", "s", "scalar", ("loads.pulse_start",)),
+            Parameter("t_end", "s", "scalar", ("loads.pulse_end",)))),
+    Component(
+        "tip_force", present=_nonzero("loads.tip_force"), doc="constant force at the free tip",
+        parameters=(Parameter("force", "N", "vec3", ("loads.tip_force",)),)),
+    Component(
+        "drag", present=lambda deck, built: "drag" in deck.groups, doc="cross-flow aerodynamic drag",
+        parameters=(
+            Parameter("air_density", "kg/m^3", "scalar", ("drag.air_density",)),
+            Parameter("stream", "m/s", "vec3", ("drag.stream_velocity", "drag.forward_speed"), _drag_stream,
+                      doc="free stream in the inertial frame: stream_velocity - (forward_speed, 0, 0)"),
+            Parameter("cd", "-", "body", ("drag.cd",)))),
+)
+
+
+def add_loads(core, deck: Deck, built: dict) -> None:
+    """Add every load of :data:`LOADS` the deck has to the model in ``core``."""
+    for component in LOADS:
+        if component.present(deck, built):
+            core.add_load(component.kind, component.pack(deck, built), context=component.context)

@@ -1,0 +1,76 @@
+"""The component registry (issue 23 item 1): every load declares its parameters once, in
+pydriver/components.py, in the deck schema's terms; the core reads them by name from a keyed
+parameter block (src_fortran/parameter_block.f90) and refuses a missing name or a wrong size
+through the error channel instead of reading a flat array by position."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+from conftest import ROOT
+from pydriver.components import LOADS, SHAPES
+from pydriver.core import CoreModel, _parameter_arrays
+from pydriver.errors import RunError
+from pydriver.schema import lookup
+
+
+def three_bodies() -> CoreModel:
+    core = CoreModel("blocks", [0.1] * 3, [0.01] * 3, [0.2] * 3, "zy", [False] * 3, np.zeros((2, 3)))
+    return core
+
+
+def test_parameters_travel_by_name():
+    names_r, sizes_r, reals, names_i, sizes_i, ints = _parameter_arrays(
+        {"air_density": 1.2, "stream": [1.0, 2.0, 3.0], "body": np.int32(2), "cd": [0.5, 0.6]})
+    assert names_r.split() == ["air_density", "stream", "cd"] and list(sizes_r) == [1, 3, 2]
+    assert list(reals) == [1.2, 1.0, 2.0, 3.0, 0.5, 0.6]
+    assert names_i.split() == ["body"] and list(sizes_i) == [1] and list(ints) == [2]
+
+
+def test_a_missing_parameter_is_an_error_naming_load_and_name():
+    core = three_bodies()
+    with pytest.raises(RunError, match=r"drag: no parameter 'cd'"):
+        core.add_load("drag", {"air_density": 1.225, "stream": np.zeros(3)})
+
+
+def test_a_parameter_of_the_wrong_size_is_an_error_naming_the_sizes():
+    core = three_bodies()
+    with pytest.raises(RunError, match=r"gravity: parameter 'g' has 2 values, expected 3"):
+        core.add_load("gravity", {"g": [0.0, -9.81]})
+    with pytest.raises(RunError, match=r"drag: parameter 'cd' has 2 values, expected 3"):
+        core.add_load("drag", {"air_density": 1.225, "stream": np.zeros(3), "cd": [1.0, 1.0]})
+    with pytest.raises(RunError, match=r"pulse: parameter 'body' has 0 values, expected 1"):
+        core.add_load("pulse", {"body": np.zeros(0, np.int32), "force": np.ones(3), "t_start": 0.0, "t_end": 1.0})
+
+
+def test_an_unknown_load_kind_is_an_error():
+    with pytest.raises(RunError, match="unknown load kind 'magnet'"):
+        three_bodies().add_load("magnet", {})
+
+
+@pytest.mark.parametrize("component", LOADS, ids=lambda c: c.kind)
+def test_every_declared_parameter_is_fed_by_schema_keys(component):
+    """Each parameter names the deck keys that feed it; they are keys of the schema, and one fed
+    straight by a single key has that key's unit and shape, so the schema (range, default, doc)
+    describes the value the core gets."""
+    assert component.parameters and component.doc
+    for p in component.parameters:
+        assert p.shape in SHAPES and p.keys, p.name
+        for dotted in p.keys:
+            assert lookup(*dotted.split(".")) is not None, f"{component.kind}.{p.name}: {dotted} is no deck key"
+        if p.derive is None:
+            assert len(p.keys) == 1
+            key = lookup(*p.keys[0].split("."))
+            assert (key.unit, key.shape) == (p.unit, p.shape), f"{component.kind}.{p.name}"
+            assert p.default == key.default
+
+
+def test_no_load_constructor_reads_a_flat_array_by_position():
+    """The constructors take a parameter block; none takes (ints, reals) any more."""
+    for path in sorted((ROOT / "src_fortran" / "loads").glob("*.f90")):
+        text = path.read_text()
+        assert not re.search(r"real\(dp\), intent\(in\) :: reals\(:\)", text), path.name
+        assert not re.search(r"\breals\(\d", text), path.name
