@@ -53,6 +53,9 @@ class Parameter:
     def value(self, deck: Deck, built: dict) -> np.ndarray:
         """The parameter's value for this deck, as a numpy array of its size."""
         raw = self.derive(deck, built) if self.derive is not None else deck[self.keys[0]]
+        if raw is None:
+            # A key without a default that the deck leaves out: required once its component is present.
+            deck.fail(*self.keys[0].split("."), "is required here (no default)")
         a = np.asarray(raw, dtype=np.int32 if self.integer else float).reshape(-1)
         size = SHAPES[self.shape](deck.n_bodies)
         if size is not None and a.size != size:
@@ -73,6 +76,12 @@ class Component:
     def pack(self, deck: Deck, built: dict) -> dict:
         """``{name: value}`` of every parameter, for :meth:`pydriver.core.CoreModel.add_load`."""
         return {p.name: p.value(deck, built) for p in self.parameters}
+
+    @property
+    def deck_keys(self) -> dict:
+        """``{name: 'group.key'}`` of the parameters fed by one deck key: a value the core
+        refuses by its parameter name is reported as that key."""
+        return {p.name: p.keys[0] for p in self.parameters if len(p.keys) == 1}
 
 
 def _nonzero(key: str) -> Callable:
@@ -139,4 +148,5 @@ def add_loads(core, deck: Deck, built: dict) -> None:
     """Add every load of :data:`LOADS` the deck has to the model in ``core``."""
     for component in LOADS:
         if component.present(deck, built):
-            core.add_load(component.kind, component.pack(deck, built), context=component.context)
+            core.add_load(component.kind, component.pack(deck, built), context=component.context,
+                          deck_keys=component.deck_keys)

@@ -161,11 +161,13 @@ class CoreModel:
             self.handle = None
 
     # -- building -------------------------------------------------------------------------
-    def add_load(self, kind: str, params: dict, context: str = ""):
+    def add_load(self, kind: str, params: dict, context: str = "", deck_keys: dict | None = None):
         """Add a load of a kind the core's load factory knows, with its parameters by name
-        (``{name: value}``, as pydriver.components declares them)."""
+        (``{name: value}``, as pydriver.components declares them).  A constructor that refuses
+        a value names its parameter; ``deck_keys`` ({parameter: 'group.key'}) turns that name
+        into the deck key that fed it, so the error is a DeckError naming the key."""
         stat, key, msg = _api.rc_model_add_load(self.handle, kind, *_parameter_arrays(params))
-        _raise(self.deck, stat, key, msg, context)
+        _raise(self.deck, stat, (deck_keys or {}).get(_text(key), key), msg, context)
 
     def set_base(self, position, rotation, motion=((), ())):
         stat, key, msg = _api.rc_model_set_base(self.handle, _reals(position), np.asfortranarray(rotation, float),
