@@ -141,6 +141,13 @@ LOADS: tuple[Component, ...] = (
             Parameter("stream", "m/s", "vec3", ("drag.stream_velocity", "drag.forward_speed"), _drag_stream,
                       doc="free stream in the inertial frame: stream_velocity - (forward_speed, 0, 0)"),
             Parameter("cd", "-", "body", ("drag.cd",)))),
+    Component(
+        "anchor", present=lambda deck, built: "anchor" in deck.groups,
+        doc="linear spring from a joint point to a point fixed in the model frame",
+        parameters=(
+            Parameter("joint", "-", "scalar", ("anchor.joint",), integer=True),
+            Parameter("point", "m", "vec3", ("anchor.point",)),
+            Parameter("stiffness", "N/m", "scalar", ("anchor.stiffness",)))),
 )
 
 

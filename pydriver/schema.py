@@ -246,6 +246,13 @@ def _keys() -> list[Key]:
             doc="free-stream air velocity in the inertial frame", differentiable=True))
     add(Key("drag", "forward_speed", "real", unit="m/s", default=0.0, **NONNEG, high=1.0e3,
             doc="forward flight speed along the inertial +x axis (adds -V e_x to the stream)", differentiable=True))
+    # &anchor: a spring from a joint point to a fixed point -------------------------------------
+    add(Key("anchor", "joint", "int", low=1, high=2001,
+            doc="joint point P_j the spring holds (1 = at support A, n_bodies + 1 = the tip)"))
+    add(Key("anchor", "point", "real", "vec3", "m", low=-1.0e3, high=1.0e3,
+            doc="anchor point, fixed in the frame of the equations (the hub frame of a rotor run)"))
+    add(Key("anchor", "stiffness", "real", unit="N/m", **POS, high=1.0e9,
+            doc="spring constant k: force -k (P_j - point), zero rest length"))
     # &fatigue ------------------------------------------------------------------------------
     add(Key("fatigue", "sn_quantity", "str", default="strain", choices=("strain", "bending"),
             doc="what the S-N curve is written on: jacket surface strain [-] or bending moment [Nm]"))
@@ -402,6 +409,7 @@ GROUP_DOCS = {
     "campbell": "Campbell diagram: rotor speeds, operating range, tracked modes, harmonics",
     "resonance": "resonance margins: the separation of every mode from the rotor harmonics at the operating speed",
     "drag": "aerodynamic drag by the cross-flow principle",
+    "anchor": "a linear spring from one joint point of the chain to a fixed point (a tether)",
     "fatigue": "fatigue per joint: S-N (Basquin) curve, rainflow around the jacket, hotspots",
     "limits": "limits the results are judged against (flagged in the summary and report.html)",
     "design": "design sensitivities (the deck keys the results are differentiated by) and the optimiser of analysis = 'design'",

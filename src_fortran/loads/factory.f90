@@ -13,6 +13,7 @@ module rotorcable_loads_factory
   use rotorcable_loads_joint_springs, only: new_joint_springs
   use rotorcable_loads_drag, only: new_drag
   use rotorcable_loads_rotation_springs, only: new_rotation_springs
+  use rotorcable_loads_anchor, only: new_anchor
   implicit none
   private
   public :: new_load
@@ -39,6 +40,8 @@ contains
       call new_rotation_springs(slot, chain, params, error)
     case ('drag')
       call new_drag(slot, chain, params, error)
+    case ('anchor')
+      call new_anchor(slot, chain, params, error)
     case default
       call fatal_error(error, 'unknown load kind '''//kind//'''')
     end select
