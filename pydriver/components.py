@@ -1,4 +1,4 @@
-"""The component registry: every load of a model declares here, once, the parameters its
+"""The component registry: every load and support of a model declares here, once, the parameters its
 Fortran constructor reads by name (name, unit, shape, default, and the deck keys that feed it),
 and when a deck has it.  :mod:`pydriver.assembly` packs each present component from its
 declaration, :mod:`pydriver.core` sends the values as the component's parameter block, and the
@@ -10,7 +10,10 @@ one deck schema; a parameter fed straight by a key takes that key's value (and d
 by several keys, or by what assembly derived from them (the joint constants), says how.
 
 A new load: its Fortran file, its lines in ``loads/factory.f90`` and ``src_fortran/meson.build``,
-its :class:`Component` in :data:`LOADS`, and its keys in the schema (docs/architecture.md).
+its :class:`Component` in :data:`LOADS`, and its keys in the schema (docs/architecture.md).  A new
+support the same with ``supports/factory.f90`` and :data:`SUPPORTS`; every support also gets
+``motion_ints`` and ``motion_reals``, the prescribed motion of its deck group
+(:func:`support_motion_parameters`).
 """
 
 from __future__ import annotations
@@ -21,11 +24,13 @@ from typing import Callable
 import numpy as np
 
 from pydriver.deckfile import Deck
+from pydriver.motions import DEG, rot_y, rot_z, support_motion
 from pydriver.schema import lookup
 
 #: Sizes of the shapes a parameter may have, given the number of bodies n (None: any size, the
 #: Fortran constructor checks it against what it knows, e.g. the number of coordinates).
-SHAPES = {"scalar": lambda n: 1, "vec3": lambda n: 3, "body": lambda n: n, "coords": lambda n: None,
+SHAPES = {"scalar": lambda n: 1, "vec3": lambda n: 3, "matrix3": lambda n: 9, "body": lambda n: n,
+          "coords": lambda n: None,
           "free_joints x 3": lambda n: None, "list": lambda n: None}
 
 
@@ -71,6 +76,7 @@ class Component:
     parameters: tuple             #: its Parameter declarations
     present: Callable             #: (deck, built) -> whether the deck has it
     context: str = ""             #: prefixed to the core's messages about it ('&springs')
+    group: str = ""               #: a support's deck group (its motion, its 'active' key)
     doc: str = ""
 
     def pack(self, deck: Deck, built: dict) -> dict:
@@ -149,6 +155,48 @@ LOADS: tuple[Component, ...] = (
             Parameter("point", "m", "vec3", ("anchor.point",)),
             Parameter("stiffness", "N/m", "scalar", ("anchor.stiffness",)))),
 )
+
+
+def _clamp_position(deck: Deck, built: dict) -> np.ndarray:
+    # from_start: where the start shape's tip is (``built['start_shape']``, CoreModel.shape).
+    return built["start_shape"]["joints"][-1] if deck["clamp_b.from_start"] else deck["clamp_b.position"]
+
+
+def _clamp_rotation(deck: Deck, built: dict) -> np.ndarray:
+    if deck["clamp_b.from_start"]:
+        r = built["start_shape"]["last_rotation"]
+    else:
+        r = rot_z(deck["clamp_b.gamma_deg"] * DEG) @ rot_y(deck["clamp_b.beta_deg"] * DEG)
+    return np.asarray(r, float).ravel(order="F")       # column by column, as Fortran reads it
+
+
+#: Support B kinds; a deck has at most one (each is present by its group's ``active`` key).
+#: ``built`` holds ``start_shape``, the deck's start shape (CoreModel.shape of q0).
+SUPPORTS: tuple[Component, ...] = (
+    Component(
+        "clamp", group="clamp_b", context="clamp B", present=lambda deck, built: bool(deck["clamp_b.active"]),
+        doc="clamp B: the tip's position and the last body's orientation held (6 rows)",
+        parameters=(
+            Parameter("position", "m", "vec3", ("clamp_b.position", "clamp_b.from_start"), _clamp_position),
+            Parameter("rotation", "-", "matrix3", ("clamp_b.gamma_deg", "clamp_b.beta_deg", "clamp_b.from_start"),
+                      _clamp_rotation, doc="R_B0, column by column"))),
+)
+
+
+def support_of(deck: Deck) -> Component | None:
+    """The support B the deck has (None: a free end); two at once are a DeckError."""
+    present = [c for c in SUPPORTS if c.present(deck, {})]
+    if len(present) > 1:
+        deck.fail(present[1].group, "active", f"the chain's end has one support, and &{present[0].group} "
+                  "is active too")
+    return present[0] if present else None
+
+
+def support_motion_parameters(support: Component, deck: Deck, rot: dict | None, position) -> dict:
+    """``motion_ints``, ``motion_reals``: the prescribed motion of the support's group
+    (pydriver.motions.support_motion; rotorcable_motion_builder's layout)."""
+    ints, reals = support_motion(deck, rot, support.group, position)
+    return {"motion_ints": np.asarray(ints, np.int32), "motion_reals": np.asarray(reals, float)}
 
 
 def add_loads(core, deck: Deck, built: dict) -> None:

@@ -174,10 +174,11 @@ class CoreModel:
                                                 _ints(motion[0]), _reals(motion[1]))
         _raise(self.deck, stat, key, msg, "clamp A")
 
-    def set_clamp(self, position, rotation, motion=((), ())):
-        stat, key, msg = _api.rc_model_set_clamp(self.handle, _reals(position), np.asfortranarray(rotation, float),
-                                                 _ints(motion[0]), _reals(motion[1]))
-        _raise(self.deck, stat, key, msg, "clamp B")
+    def add_support(self, kind: str, params: dict, context: str = "", deck_keys: dict | None = None):
+        """Add support B, of a kind the core's support factory knows, with its parameters by name
+        (as :meth:`add_load`)."""
+        stat, key, msg = _api.rc_model_add_support(self.handle, kind, *_parameter_arrays(params))
+        _raise(self.deck, stat, (deck_keys or {}).get(_text(key), key), msg, context)
 
     def set_rotor(self, profile: str, centre, params, hub: bool, body_couples: bool):
         stat, key, msg = _api.rc_model_set_rotor(self.handle, ROTOR_PROFILES[profile], _reals(centre),

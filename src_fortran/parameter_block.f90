@@ -12,7 +12,7 @@ module rotorcable_parameter_block
   use rotorcable_errors, only: error_type, fatal_error
   implicit none
   private
-  public :: parameter_block, block_from_flat, has_parameter, get_real, get_reals, get_int, get_ints
+  public :: parameter_block, block_from_flat, has_parameter, parameter_size, get_real, get_reals, get_int, get_ints
 
   integer, parameter :: NAME_LEN = 32
 
@@ -61,6 +61,19 @@ contains
     character(len=*), intent(in) :: name          !< parameter name
     has_parameter = findloc_name(block%real_names, name) > 0 .or. findloc_name(block%int_names, name) > 0
   end function has_parameter
+
+  !> The number of values of parameter `name` (real or integer), -1 if the block has none: for
+  !> a parameter whose length the constructor cannot know (a motion description).
+  pure integer function parameter_size(block, name) result(n)
+    type(parameter_block), intent(in) :: block    !< the block
+    character(len=*), intent(in) :: name          !< parameter name
+    integer :: i
+    n = -1
+    i = findloc_name(block%real_names, name)
+    if (i > 0) n = block%real_first(i + 1) - block%real_first(i)
+    i = findloc_name(block%int_names, name)
+    if (i > 0) n = block%int_first(i + 1) - block%int_first(i)
+  end function parameter_size
 
   !> The scalar real parameter `name`.
   subroutine get_real(block, name, value, error)

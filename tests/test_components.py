@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from conftest import ROOT
-from pydriver.components import LOADS, SHAPES
+from pydriver.components import LOADS, SHAPES, SUPPORTS
 from pydriver.core import CoreModel, _parameter_arrays
 from pydriver.errors import RunError
 from pydriver.schema import lookup
@@ -51,7 +51,37 @@ def test_an_unknown_load_kind_is_an_error():
         three_bodies().add_load("magnet", {})
 
 
-@pytest.mark.parametrize("component", LOADS, ids=lambda c: c.kind)
+def test_an_unknown_support_kind_is_an_error():
+    with pytest.raises(RunError, match="unknown support kind 'hook'"):
+        three_bodies().add_support("hook", {})
+
+
+def test_a_support_without_a_declared_parameter_is_an_error_naming_it():
+    motion = {"motion_ints": np.zeros(0, np.int32), "motion_reals": np.zeros(0)}
+    with pytest.raises(RunError, match=r"clamp: no parameter 'rotation'"):
+        three_bodies().add_support("clamp", {"position": np.zeros(3), **motion})
+    with pytest.raises(RunError, match=r"clamp: parameter 'rotation' has 4 values, expected 9"):
+        three_bodies().add_support("clamp", {"position": np.zeros(3), "rotation": np.eye(2), **motion})
+
+
+def test_the_chain_end_takes_one_support():
+    core = three_bodies()
+    clamp = {"position": [0.3, 0.0, 0.0], "rotation": np.eye(3).ravel(),
+             "motion_ints": np.zeros(0, np.int32), "motion_reals": np.zeros(0)}
+    core.add_support("clamp", clamp)
+    with pytest.raises(RunError, match="has a support already"):
+        core.add_support("clamp", clamp)
+
+
+def test_no_support_is_downcast_outside_its_own_file():
+    """What the model asks of support B is a procedure of support_type (reach_target,
+    motion_twist), not a `type is (clamp_support)` branch in projection or sampling."""
+    for path in sorted((ROOT / "src_fortran").rglob("*.f90")):
+        if path.parent.name != "supports":
+            assert not re.search(r"type is \(\w+_support\)", path.read_text()), path.name
+
+
+@pytest.mark.parametrize("component", LOADS + SUPPORTS, ids=lambda c: c.kind)
 def test_every_declared_parameter_is_fed_by_schema_keys(component):
     """Each parameter names the deck keys that feed it; they are keys of the schema, and one fed
     straight by a single key has that key's unit and shape, so the schema (range, default, doc)

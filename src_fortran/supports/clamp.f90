@@ -14,9 +14,11 @@
 !> (rotorcable_frame) and Tdot = (tr(Edot) I - Edot)/2.  The multipliers are the clamp wrench on
 !> the chain: F_B = lambda_pos, M_B = T^T lambda_rot (eq. 3.50: G^T lambda is the generalized
 !> force of that wrench).
+!> Parameters: position(3) [m], rotation(9) (R_B0 column by column), motion_ints, motion_reals
+!> (rotorcable_motion_builder).
 module rotorcable_supports_clamp
   use rotorcable_kinds, only: dp
-  use rotorcable_errors, only: error_type, fatal_error
+  use rotorcable_errors, only: error_type
   use rotorcable_chain, only: chain_type
   use rotorcable_kinematics, only: chain_state
   use rotorcable_kinematics_tangent, only: chain_tangent
@@ -24,6 +26,8 @@ module rotorcable_supports_clamp
   use rotorcable_rotations, only: cross, skew, vee, identity3, rotation_log, rotation_exp
   use rotorcable_motion_rotor, only: rotor_state
   use rotorcable_motion_rigid_motion, only: rigid_motion, motion_state, motion_at, point_motion, motion_free
+  use rotorcable_motion_builder, only: motion_from_block
+  use rotorcable_parameter_block, only: parameter_block, get_reals
   use rotorcable_supports_type, only: support_type
   implicit none
   private
@@ -60,31 +64,38 @@ module rotorcable_supports_clamp
     procedure :: closure
     procedure :: closure_rows
     procedure :: blend_target
+    procedure :: reach_target
+    procedure :: motion_twist
     procedure :: free
   end type clamp_support
 
 contains
 
-  !> A clamp at the reference pose (position, rotation), moved by `motion` if it has hinges.
-  subroutine new_clamp(clamp, position, rotation, motion)
-    type(clamp_support), intent(out) :: clamp !< clamp to build
-    real(dp), intent(in) :: position(3)       !< p_B0 [m]
-    real(dp), intent(in) :: rotation(3, 3)    !< R_B0
-    type(rigid_motion), intent(in), optional :: motion  !< prescribed motion
-    clamp%position_ref = position
-    clamp%rotation_ref = rotation
-    clamp%position = position
-    clamp%rotation = rotation
-    clamp%true_position = position
-    clamp%true_rotation = rotation
-    if (present(motion)) then
-      if (allocated(motion%hinges)) then
-        if (size(motion%hinges) > 0) then
-          clamp%moving = .true.
-          clamp%motion = motion
-        end if
-      end if
+  !> A clamp at the reference pose (position, rotation), moved by its motion if it has hinges.
+  subroutine new_clamp(support, chain, params, error)
+    class(support_type), allocatable, intent(out) :: support  !< the support built
+    type(chain_type), intent(in) :: chain     !< chain description
+    type(parameter_block), intent(in) :: params  !< position, rotation, motion_ints, motion_reals
+    type(error_type), intent(inout) :: error  !< status
+    type(clamp_support) :: clamp
+    real(dp) :: rotation(9)
+    type(rigid_motion) :: motion
+    call get_reals(params, 'position', clamp%position_ref, error)
+    call get_reals(params, 'rotation', rotation, error)
+    call motion_from_block(params, motion, error)
+    if (error%code /= 0) return
+    clamp%label = 'clamp B'
+    clamp%position_key = 'clamp_b.position'
+    clamp%rotation_ref = reshape(rotation, [3, 3])
+    clamp%position = clamp%position_ref
+    clamp%rotation = clamp%rotation_ref
+    clamp%true_position = clamp%position_ref
+    clamp%true_rotation = clamp%rotation_ref
+    if (size(motion%hinges) > 0) then
+      clamp%moving = .true.
+      clamp%motion = motion
     end if
+    allocate (support, source=clamp)
   end subroutine new_clamp
 
   pure integer function rows(self)
@@ -353,6 +364,25 @@ contains
       self%rotation = self%true_rotation
     end if
   end subroutine blend_target
+
+  !> The free part ends where the held last body starts: p_B - L_n R_B e_z.
+  pure subroutine reach_target(self, chain, point, held, found)
+    class(clamp_support), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    real(dp), intent(out) :: point(3)
+    integer, intent(out) :: held
+    logical, intent(out) :: found
+    point = self%position - chain%length(chain%n_bodies)*self%rotation(:, 3)
+    held = 1
+    found = .true.
+  end subroutine reach_target
+
+  pure subroutine motion_twist(self, velocity, omega)
+    class(clamp_support), intent(in) :: self
+    real(dp), intent(out) :: velocity(3), omega(3)
+    velocity = self%lin_velocity
+    omega = self%omega
+  end subroutine motion_twist
 
   subroutine free(self)
     class(clamp_support), intent(inout) :: self
