@@ -180,6 +180,10 @@ SUPPORTS: tuple[Component, ...] = (
             Parameter("position", "m", "vec3", ("clamp_b.position", "clamp_b.from_start"), _clamp_position),
             Parameter("rotation", "-", "matrix3", ("clamp_b.gamma_deg", "clamp_b.beta_deg", "clamp_b.from_start"),
                       _clamp_rotation, doc="R_B0, column by column"))),
+    Component(
+        "ball", group="ball_b", context="ball B", present=lambda deck, built: bool(deck["ball_b.active"]),
+        doc="ball B: the tip's position held, the last body free to turn about it (3 rows)",
+        parameters=(Parameter("position", "m", "vec3", ("ball_b.position",)),)),
 )
 
 

@@ -151,6 +151,9 @@ def _keys() -> list[Key]:
     add(Key("clamp_b", "beta_deg", "real", unit="deg", low=-360.0, high=360.0, doc="orientation of the last body, thesis beta", differentiable=True))
     add(Key("clamp_b", "moves_with", "str", default="hub", choices=("hub", "blade"),
             doc="clamp B is fixed on the hub, or moves with the blade (&blade)"))
+    add(Key("ball_b", "active", "bool", default=False,
+            doc="ball B holds the tip at a point, the last body free to turn (3 constraint rows; instead of clamp B)"))
+    add(Key("ball_b", "position", "real", "vec3", "m", low=-1.0e3, high=1.0e3, doc="ball point p_B (the chain's tip)"))
     # &loads -------------------------------------------------------------------------------
     add(Key("loads", "gravity", "real", "vec3", "m/s^2", (0.0, 0.0, -9.81), "gravitational acceleration", low=-1.0e3, high=1.0e3, differentiable=True))
     add(Key("loads", "rotor_rpm", "real", unit="rpm", **NONNEG, high=1.0e5, tiny=1.0e-3,
@@ -403,6 +406,7 @@ GROUP_DOCS = {
     "cable": "physical cable parameters; the joint constants are derived for any n",
     "clamp_a": "support A at the start of the chain (the deck origin); joint 1 turns relative to its frame",
     "clamp_b": "support B holding the last body",
+    "ball_b": "support B as a ball joint: the tip held at a point, the last body free to turn",
     "loads": "gravity, rotor speed (legacy), force pulse, tip force",
     "rotor": "the rotor: speed profile, centre, and the frame the equations are written in",
     "blade": "the blade's flap, lead-lag and pitch motion, carried by a support that moves with the blade",

@@ -8,6 +8,7 @@ module rotorcable_supports_factory
   use rotorcable_parameter_block, only: parameter_block
   use rotorcable_supports_type, only: support_type
   use rotorcable_supports_clamp, only: new_clamp
+  use rotorcable_supports_ball, only: new_ball
   implicit none
   private
   public :: new_support
@@ -24,6 +25,8 @@ contains
     select case (kind)
     case ('clamp')
       call new_clamp(support, chain, params, error)
+    case ('ball')
+      call new_ball(support, chain, params, error)
     case default
       call fatal_error(error, 'unknown support kind '''//kind//'''')
     end select
