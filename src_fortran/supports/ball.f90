@@ -5,7 +5,8 @@
 !>
 !> Rows: g = P_{n+1} - p_B;  G = [a_k x (P_{n+1} - P_k)] per coordinate k of joint k's body;
 !> G v + g_t = v_tip - v_B;  d^2g/dt^2 at qdd = 0 = a_tip - a_B (tip velocity and acceleration
-!> relative to the model frame, rotorcable_frame).  The multipliers are the force on the tip:
+!> relative to the model frame; the rows clamp B has for its position,
+!> rotorcable_supports_tip_point).  The multipliers are the force on the tip:
 !> F_B = lambda, M_B = 0 (eq. 3.50: G^T lambda is the generalized force of F_B at P_{n+1}).
 !> Parameters: position(3) [m], motion_ints, motion_reals (rotorcable_motion_builder).
 module rotorcable_supports_ball
@@ -14,13 +15,14 @@ module rotorcable_supports_ball
   use rotorcable_chain, only: chain_type
   use rotorcable_kinematics, only: chain_state
   use rotorcable_kinematics_tangent, only: chain_tangent
-  use rotorcable_frame, only: frame_state, relative_velocity, relative_acceleration
-  use rotorcable_rotations, only: cross
+  use rotorcable_frame, only: frame_state
   use rotorcable_motion_rotor, only: rotor_state
   use rotorcable_motion_rigid_motion, only: rigid_motion, motion_state, motion_at, point_motion, motion_free
   use rotorcable_motion_builder, only: motion_from_block
   use rotorcable_parameter_block, only: parameter_block, get_reals
   use rotorcable_supports_type, only: support_type
+  use rotorcable_supports_tip_point, only: tip_jacobian, add_tip_wrench, add_tip_wrench_tangent, tip_velocity, &
+                                           tip_acceleration, tip_velocity_tangent
   implicit none
   private
   public :: ball_support, new_ball
@@ -106,15 +108,7 @@ contains
     type(chain_type), intent(in) :: chain
     type(chain_state), intent(in) :: st
     real(dp), intent(out) :: g_jac(:, :)
-    real(dp) :: tip(3), arm(3)
-    integer :: j, kk
-    tip = st%joint_point(:, chain%n_bodies + 1)
-    do j = 1, chain%n_bodies
-      arm = tip - st%joint_point(:, j)
-      do kk = 1, chain%n_joint_coords(j)
-        g_jac(1:3, chain%first_coord(j) + kk - 1) = cross(st%axes(:, kk, j), arm)
-      end do
-    end do
+    call tip_jacobian(chain, st, g_jac)
   end subroutine jacobian
 
   !> (G^T mu)_k = a_k . ((tip - P_j) x mu).
@@ -124,16 +118,7 @@ contains
     type(chain_state), intent(in) :: st
     real(dp), intent(in) :: mu(:)
     real(dp), intent(inout) :: r(:)
-    real(dp) :: tip(3), w(3)
-    integer :: j, kk, k
-    tip = st%joint_point(:, chain%n_bodies + 1)
-    do j = 1, chain%n_bodies
-      w = cross(tip - st%joint_point(:, j), mu(1:3))
-      do kk = 1, chain%n_joint_coords(j)
-        k = chain%first_coord(j) + kk - 1
-        r(k) = r(k) + dot_product(st%axes(:, kk, j), w)
-      end do
-    end do
+    call add_tip_wrench(chain, st, mu(1:3), [0.0_dp, 0.0_dp, 0.0_dp], r)
   end subroutine add_jacobian_transpose_times
 
   pure subroutine velocity_rows(self, chain, st, fs, out)
@@ -142,9 +127,7 @@ contains
     type(chain_state), intent(in) :: st
     type(frame_state), intent(in) :: fs
     real(dp), intent(out) :: out(:)
-    integer :: n
-    n = chain%n_bodies
-    out(1:3) = relative_velocity(fs, st%joint_point(:, n + 1), st%vel_joint(:, n + 1)) - self%lin_velocity
+    out(1:3) = tip_velocity(chain, st, fs, self%lin_velocity)
   end subroutine velocity_rows
 
   pure subroutine bias(self, chain, st, fs, out)
@@ -153,12 +136,7 @@ contains
     type(chain_state), intent(in) :: st
     type(frame_state), intent(in) :: fs
     real(dp), intent(out) :: out(:)
-    real(dp) :: tip(3), v_rel(3)
-    integer :: n
-    n = chain%n_bodies
-    tip = st%joint_point(:, n + 1)
-    v_rel = relative_velocity(fs, tip, st%vel_joint(:, n + 1))
-    out(1:3) = relative_acceleration(fs, tip, v_rel, st%acc_joint(:, n + 1)) - self%lin_acceleration
+    out(1:3) = tip_acceleration(chain, st, fs, self%lin_acceleration)
   end subroutine bias
 
   !> The force at the tip is the multiplier; a ball transmits no moment.
@@ -181,7 +159,6 @@ contains
     dg(1:3) = dst%djoint_point(:, chain%n_bodies + 1)
   end subroutine residual_tangent
 
-  !> d(v_tip - Omega x (tip - c)) = dv_tip - Omega x dtip (p_B moves with time only).
   pure subroutine velocity_tangent(self, chain, st, dst, fs, dout)
     class(ball_support), intent(in) :: self
     type(chain_type), intent(in) :: chain
@@ -189,13 +166,9 @@ contains
     type(chain_tangent), intent(in) :: dst
     type(frame_state), intent(in) :: fs
     real(dp), intent(out) :: dout(:)
-    integer :: n
-    n = chain%n_bodies
-    dout(1:3) = dst%dvel_joint(:, n + 1)
-    if (fs%rotating) dout(1:3) = dout(1:3) - cross(fs%omega, dst%djoint_point(:, n + 1))
+    dout(1:3) = tip_velocity_tangent(chain, dst, fs)
   end subroutine velocity_tangent
 
-  !> d(G^T mu)_k = da_k . w_j + a_k . dw_j,  w_j = (tip - P_j) x mu.
   pure subroutine add_jacobian_transpose_tangent(self, chain, st, dst, mu, dmu, dr)
     class(ball_support), intent(in) :: self
     type(chain_type), intent(in) :: chain
@@ -203,20 +176,9 @@ contains
     type(chain_tangent), intent(in) :: dst
     real(dp), intent(in) :: mu(:), dmu(:)
     real(dp), intent(inout) :: dr(:)
-    real(dp) :: arm(3), darm(3), w(3), dw(3)
-    integer :: j, kk, k, n
-    n = chain%n_bodies
-    do j = 1, n
-      if (chain%n_joint_coords(j) == 0) cycle
-      arm = st%joint_point(:, n + 1) - st%joint_point(:, j)
-      darm = dst%djoint_point(:, n + 1) - dst%djoint_point(:, j)
-      w = cross(arm, mu(1:3))
-      dw = cross(darm, mu(1:3)) + cross(arm, dmu(1:3))
-      do kk = 1, chain%n_joint_coords(j)
-        k = chain%first_coord(j) + kk - 1
-        dr(k) = dr(k) + dot_product(dst%daxes(:, kk, j), w) + dot_product(st%axes(:, kk, j), dw)
-      end do
-    end do
+    real(dp) :: zero(3)
+    zero = 0.0_dp
+    call add_tip_wrench_tangent(chain, st, dst, mu(1:3), dmu(1:3), zero, zero, dr)
   end subroutine add_jacobian_transpose_tangent
 
   pure subroutine wrench_tangent(self, chain, st, dst, lambda, dlambda, dforce, dmoment)

@@ -29,6 +29,8 @@ module rotorcable_supports_clamp
   use rotorcable_motion_builder, only: motion_from_block
   use rotorcable_parameter_block, only: parameter_block, get_reals
   use rotorcable_supports_type, only: support_type
+  use rotorcable_supports_tip_point, only: tip_jacobian, add_tip_wrench, add_tip_wrench_tangent, tip_velocity, &
+                                           tip_acceleration, tip_velocity_tangent
   implicit none
   private
   public :: clamp_support, new_clamp
@@ -151,40 +153,26 @@ contains
     type(chain_type), intent(in) :: chain
     type(chain_state), intent(in) :: st
     real(dp), intent(out) :: g_jac(:, :)
-    real(dp) :: t(3, 3), tip(3), arm(3)
-    integer :: j, kk, k
+    real(dp) :: t(3, 3)
+    integer :: j, kk
+    call tip_jacobian(chain, st, g_jac)
     t = rate_map(orientation_error(self, st))
-    tip = st%joint_point(:, chain%n_bodies + 1)
     do j = 1, chain%n_bodies
-      arm = tip - st%joint_point(:, j)        ! a local: no heap temporary for cross
       do kk = 1, chain%n_joint_coords(j)
-        k = chain%first_coord(j) + kk - 1
-        g_jac(1:3, k) = cross(st%axes(:, kk, j), arm)
-        g_jac(4:6, k) = matmul(t, st%axes(:, kk, j))
+        g_jac(4:6, chain%first_coord(j) + kk - 1) = matmul(t, st%axes(:, kk, j))
       end do
     end do
   end subroutine jacobian
 
-  !> (G^T mu)_k = a_k . ((tip - P_j) x mu_t + T^T mu_r): one 3-vector per body instead of six
-  !> numbers per coordinate.
+  !> (G^T mu)_k = a_k . ((tip - P_j) x mu_t + T^T mu_r): the generalized force of the wrench
+  !> (mu_t at the tip, T^T mu_r).
   pure subroutine add_jacobian_transpose_times(self, chain, st, mu, r)
     class(clamp_support), intent(in) :: self
     type(chain_type), intent(in) :: chain
     type(chain_state), intent(in) :: st
     real(dp), intent(in) :: mu(:)
     real(dp), intent(inout) :: r(:)
-    real(dp) :: t_mu(3), tip(3), arm(3), w(3)
-    integer :: j, kk
-    t_mu = matmul(mu(4:6), rate_map(orientation_error(self, st)))
-    tip = st%joint_point(:, chain%n_bodies + 1)
-    do j = 1, chain%n_bodies
-      if (chain%n_joint_coords(j) == 0) cycle
-      arm = tip - st%joint_point(:, j)
-      w = cross(arm, mu(1:3)) + t_mu
-      do kk = 1, chain%n_joint_coords(j)
-        r(chain%first_coord(j) + kk - 1) = r(chain%first_coord(j) + kk - 1) + dot_product(st%axes(:, kk, j), w)
-      end do
-    end do
+    call add_tip_wrench(chain, st, mu(1:3), matmul(mu(4:6), rate_map(orientation_error(self, st))), r)
   end subroutine add_jacobian_transpose_times
 
   pure subroutine velocity_rows(self, chain, st, fs, out)
@@ -193,13 +181,12 @@ contains
     type(chain_state), intent(in) :: st
     type(frame_state), intent(in) :: fs
     real(dp), intent(out) :: out(:)
-    real(dp) :: tip(3), w_n(3), t(3, 3)
+    real(dp) :: w_n(3), t(3, 3)
     integer :: n
     n = chain%n_bodies
-    tip = st%joint_point(:, n + 1)
     t = rate_map(orientation_error(self, st))
     w_n = st%omega(:, n) - fs%omega
-    out(1:3) = relative_velocity(fs, tip, st%vel_joint(:, n + 1)) - self%lin_velocity
+    out(1:3) = tip_velocity(chain, st, fs, self%lin_velocity)
     out(4:6) = matmul(t, w_n) - matmul(self%omega, t)
   end subroutine velocity_rows
 
@@ -209,12 +196,10 @@ contains
     type(chain_state), intent(in) :: st
     type(frame_state), intent(in) :: fs
     real(dp), intent(out) :: out(:)
-    real(dp) :: tip(3), v_rel(3), w_n(3), al_n(3), e(3, 3), edot(3, 3), t(3, 3), tdot(3, 3)
+    real(dp) :: w_n(3), al_n(3), e(3, 3), edot(3, 3), t(3, 3), tdot(3, 3)
     integer :: n
     n = chain%n_bodies
-    tip = st%joint_point(:, n + 1)
-    v_rel = relative_velocity(fs, tip, st%vel_joint(:, n + 1))
-    out(1:3) = relative_acceleration(fs, tip, v_rel, st%acc_joint(:, n + 1)) - self%lin_acceleration
+    out(1:3) = tip_acceleration(chain, st, fs, self%lin_acceleration)
     w_n = st%omega(:, n) - fs%omega
     al_n = st%alpha(:, n) - fs%omega_dot - cross(fs%omega, w_n)
     e = orientation_error(self, st)
@@ -268,15 +253,15 @@ contains
     real(dp) :: t(3, 3), dt(3, 3), w_n(3)
     integer :: n
     n = chain%n_bodies
-    dout(1:3) = dst%dvel_joint(:, n + 1)
-    if (fs%rotating) dout(1:3) = dout(1:3) - cross(fs%omega, dst%djoint_point(:, n + 1))
+    dout(1:3) = tip_velocity_tangent(chain, dst, fs)
     t = rate_map(orientation_error(self, st))
     dt = rate_map(orientation_error_tangent(self, st, dst))
     w_n = st%omega(:, n) - fs%omega
     dout(4:6) = matmul(dt, w_n) + matmul(t, dst%domega(:, n)) - matmul(self%omega, dt)
   end subroutine velocity_tangent
 
-  !> d(G^T mu)_k = da_k . w_j + a_k . dw_j,  w_j = (tip - P_j) x mu_t + T^T mu_r.
+  !> d(G^T mu): the tip wrench's tangent with the moment T^T mu_r and its change
+  !> dT^T mu_r + T^T dmu_r.
   pure subroutine add_jacobian_transpose_tangent(self, chain, st, dst, mu, dmu, dr)
     class(clamp_support), intent(in) :: self
     type(chain_type), intent(in) :: chain
@@ -284,27 +269,11 @@ contains
     type(chain_tangent), intent(in) :: dst
     real(dp), intent(in) :: mu(:), dmu(:)
     real(dp), intent(inout) :: dr(:)
-    real(dp) :: t_mu(3), dt_mu(3), tip(3), dtip(3), arm(3), darm(3), w(3), dw(3), mu_t(3), dmu_t(3)
-    integer :: j, kk, k, n
-    n = chain%n_bodies
+    real(dp) :: t_mu(3), dt_mu(3)
     t_mu = matmul(mu(4:6), rate_map(orientation_error(self, st)))
     dt_mu = matmul(mu(4:6), rate_map(orientation_error_tangent(self, st, dst))) &
             + matmul(dmu(4:6), rate_map(orientation_error(self, st)))
-    tip = st%joint_point(:, n + 1)
-    dtip = dst%djoint_point(:, n + 1)
-    mu_t = mu(1:3)
-    dmu_t = dmu(1:3)
-    do j = 1, n
-      if (chain%n_joint_coords(j) == 0) cycle
-      arm = tip - st%joint_point(:, j)
-      darm = dtip - dst%djoint_point(:, j)
-      w = cross(arm, mu_t) + t_mu
-      dw = cross(darm, mu_t) + cross(arm, dmu_t) + dt_mu
-      do kk = 1, chain%n_joint_coords(j)
-        k = chain%first_coord(j) + kk - 1
-        dr(k) = dr(k) + dot_product(dst%daxes(:, kk, j), w) + dot_product(st%axes(:, kk, j), dw)
-      end do
-    end do
+    call add_tip_wrench_tangent(chain, st, dst, mu(1:3), dmu(1:3), t_mu, dt_mu, dr)
   end subroutine add_jacobian_transpose_tangent
 
   !> dF_B = dlambda_pos, dM_B = dT^T lambda_rot + T^T dlambda_rot.
@@ -329,19 +298,16 @@ contains
     type(chain_state), intent(in) :: st
     real(dp), intent(out) :: r(:)
     real(dp), intent(out) :: r_jac(:, :)
-    real(dp) :: e(3, 3), de(3, 3), tip(3), arm(3)
-    integer :: j, kk, k
+    real(dp) :: e(3, 3), de(3, 3)
+    integer :: j, kk
     e = orientation_error(self, st)
-    tip = st%joint_point(:, chain%n_bodies + 1)
-    r(1:3) = tip - self%position
+    r(1:3) = st%joint_point(:, chain%n_bodies + 1) - self%position
     r(4:12) = reshape(e - identity3(), [9])
+    call tip_jacobian(chain, st, r_jac)
     do j = 1, chain%n_bodies
-      arm = tip - st%joint_point(:, j)
       do kk = 1, chain%n_joint_coords(j)
-        k = chain%first_coord(j) + kk - 1
-        r_jac(1:3, k) = cross(st%axes(:, kk, j), arm)
         de = matmul(skew(st%axes(:, kk, j)), e)
-        r_jac(4:12, k) = reshape(de, [9])
+        r_jac(4:12, chain%first_coord(j) + kk - 1) = reshape(de, [9])
       end do
     end do
   end subroutine closure
