@@ -73,8 +73,9 @@ def main(argv=None) -> int:
     run.add_argument("--refine", action="store_true",
                      help="run the cable at n, 2n, 4n bodies and print every number with its Richardson "
                           "extrapolation and error estimate (&refinement levels = 3; needs &cable)")
-    study = sub.add_parser("study", help="UH-60 studies: figures 5.6/5.12, 5.9 and refinement")
-    study.add_argument("name", choices=["shapes", "cy-sweep", "refine"],
+    study = sub.add_parser("study", help="UH-60 studies: figures 5.6/5.12, 5.9, refinement and the design "
+                                         "study (fatigue life before and after optimisation)")
+    study.add_argument("name", choices=["shapes", "cy-sweep", "refine", "design"],
                        help="shapes: rest vs hover plots; cy-sweep: frequency against c_y and the "
                             "flap crossing; refine: first frequency for n = 11, 22, 44, 88")
     study.add_argument("--out", default="results/studies", help="output directory")

@@ -327,9 +327,9 @@ class CoreModel:
         the explicit partial dF/dp = sum weight F(model at p + offset h) / h (None: this model),
         and the parameter's scale pbar > 0 (the sensitivity's absolute tolerance is atol / pbar).
         ``sq0``, ``sv0`` (nq, np) are the start sensitivities of q and v (made consistent in the
-        core).  Returns the consistent start ``q0``, ``v0``, the states ``q``, ``v`` (nq, nt) and
-        the sensitivities ``sq``, ``sv`` (nq, nt, np) at the increasing output times ``t`` > t0,
-        and the solver statistics.
+        core).  Returns the consistent start ``q0``, ``v0`` and start sensitivities ``sq0``,
+        ``sv0``, the states ``q``, ``v`` (nq, nt) and the sensitivities ``sq``, ``sv``
+        (nq, nt, np) at the increasing output times ``t`` > t0, and the solver statistics.
         """
         real, ints = _settings_arrays(settings)
         t = _reals(t)
@@ -342,14 +342,15 @@ class CoreModel:
             for i, (s, w, m) in enumerate(pts):
                 handles[i, k] = 0 if m is None else m.handle
                 offsets[i, k], weights[i, k] = s, w
-        q, v, qs, vs, sq, sv, st, stat, key, msg = _api.rc_parameter_sensitivity(
+        q, v, qs, vs, sq, sv, sq_start, sv_start, st, stat, key, msg = _api.rc_parameter_sensitivity(
             self.handle, real, ints, float(t0), _reals(q0), _reals(v0), handles, offsets, weights,
             _reals([p[0] for p in points]), _reals([p[1] for p in points]),
             np.asfortranarray(sq0, float), np.asfortranarray(sv0, float), t)
         _raise(self.deck, stat, key, msg)
         stats = dict(zip(("steps", "residual_evals", "jacobian_evals", "error_test_failures",
                           "convergence_failures", "sensitivity_residual_evals"), (int(x) for x in st)))
-        return {"q0": qs, "v0": vs, "q": q, "v": v, "sq": sq, "sv": sv, "stats": stats}
+        return {"q0": qs, "v0": vs, "q": q, "v": v, "sq": sq, "sv": sv, "sq0": sq_start, "sv0": sv_start,
+                "stats": stats}
 
     def sample(self, t, q, v) -> dict:
         """Output quantities at the states q, v (nq, nt) and times t (nt)."""

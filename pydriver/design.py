@@ -27,7 +27,7 @@ MAX_PARAMETERS = 64
 #: The analyses that give sensitivities in this version (issue 24: static and modal; flight, with the
 #: parameters that leave the supports and the period alone), and the
 #: optimiser built on them (pydriver/analyses/optimiser.py).
-ANALYSES = ("static", "modal", "flight", "design")
+ANALYSES = ("static", "modal", "dynamic", "flight", "design")
 #: Relative difference step h = STEP * max(|p|, 1 unit): the cube root of the machine epsilon,
 #: where the O(h^2) truncation of a central difference and its O(eps/h) round-off balance
 #: (Nocedal & Wright, Numerical Optimization, 2nd ed., eq. 8.9): both ~1e-11 relative.

@@ -7,8 +7,10 @@ the objective is the largest term.  A largest-of-several is minimised in the epi
 (minimise t subject to t >= term_i, :mod:`pydriver.analyses.optimiser`), so the kink where two
 terms swap does not stall a gradient method.
 
-A new objective is one more entry of :data:`OBJECTIVES` (a flight objective: ``needs = 'flight'``
-and terms read from the flight sensitivities, once those exist).
+A new objective is one more entry of :data:`OBJECTIVES`.  A flight objective (``needs =
+'flight'``) reads its terms from the flight sensitivities of the periodic revolution
+(:mod:`pydriver.analyses.flight_sensitivities`): damage per flight hour with the rainflow cycle
+set held fixed, strain amplitudes at their arg-max and arg-min samples.
 """
 
 from __future__ import annotations
@@ -63,6 +65,21 @@ def _joint_moments(ev: Evaluation):
     return [_magnitude(ev, [f"bending{j}_Nm", f"torsion{j}_Nm"]) for j in joints]
 
 
+def _per_joint(ev: Evaluation, prefix: str, suffix: str):
+    """The terms ``prefix{j}{suffix}`` of every joint j, in joint order."""
+    joints = sorted(int(n[len(prefix):len(n) - len(suffix)]) for n in ev.values
+                    if n.startswith(prefix) and n.endswith(suffix) and n[len(prefix):len(n) - len(suffix)].isdigit())
+    return [(ev.value(f"{prefix}{j}{suffix}"), ev.grad(f"{prefix}{j}{suffix}")) for j in joints]
+
+
+def _damage_per_hour(ev: Evaluation):
+    return _per_joint(ev, "damage_per_hour", "")
+
+
+def _strain_amplitude(ev: Evaluation):
+    return _per_joint(ev, "strain", "_amplitude")
+
+
 def _negative_first_frequency(ev: Evaluation):
     return [(-ev.value("f1_hz"), -ev.grad("f1_hz"))]
 
@@ -79,8 +96,8 @@ class Measure:
     doc : str
         What it is, for the deck reference and docs/model.md.
     needs : str
-        The evaluation it needs: ``'static'`` (equilibrium, reactions, joint loads) or ``'modal'``
-        (also the first frequency).
+        The evaluation it needs: ``'static'`` (equilibrium, reactions, joint loads), ``'modal'``
+        (also the first frequency) or ``'flight'`` (the periodic revolution of a flight deck).
     terms : callable
         Evaluation -> list of (value, gradient); the objective is the largest value.
     """
@@ -108,6 +125,13 @@ OBJECTIVES = {m.name: m for m in (
     Measure("neg_first_frequency", "Hz",
             "minus the first undamped frequency about the equilibrium (minimised: the first frequency "
             "maximised)", "modal", _negative_first_frequency),
+    Measure("max_damage_per_hour", "1/h",
+            "the largest Miner damage per flight hour over the joints (each at its worst point around the jacket; "
+            "&fatigue) of the periodic flight revolution: the shortest fatigue life maximised",
+            "flight", _damage_per_hour),
+    Measure("max_strain_amplitude", "-",
+            "the largest jacket strain amplitude (max - min)/2 over the joints in the periodic flight revolution",
+            "flight", _strain_amplitude),
 )}
 
 

@@ -44,8 +44,9 @@ class Problem:
     tolerance : float
         On the scaled problem (parameters mapped to [0, 1], objective divided by its start value).
     base_analysis : str
-        The analysis of each evaluation and of the optimum deck: 'modal' when the first frequency
-        is needed, else 'static'.
+        The analysis of each evaluation and of the optimum deck: 'flight' for a flight objective
+        (the first frequency, where the margin needs it, is that of the flight's hover state), else
+        'modal' when the first frequency is needed, else 'static'.
     """
 
     parameters: list
@@ -112,7 +113,9 @@ def problem(deck: Deck) -> Problem | None:
                 _fail(deck, "parameters", f"'{p.name}' sets the harmonics the frequency margin is measured "
                                           "from: it cannot be varied under &design frequency_margin_percent")
     objective = OBJECTIVES[deck["design.objective"]]
+    if objective.name == "max_damage_per_hour" and "fatigue" not in deck.groups:
+        _fail(deck, "objective", "'max_damage_per_hour' needs the deck's S-N curve: add &fatigue")
     needs_modes = objective.needs == "modal" or margin is not None
+    base = "flight" if objective.needs == "flight" else "modal" if needs_modes else "static"
     return Problem(params, lower, upper, objective, None if margin is None else float(margin),
-                   deck["design.method"], int(deck["design.max_iterations"]), float(deck["design.tolerance"]),
-                   "modal" if needs_modes else "static")
+                   deck["design.method"], int(deck["design.max_iterations"]), float(deck["design.tolerance"]), base)

@@ -92,8 +92,8 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
         q = {k: r for k, r in s["refinement"]["quantities"].items() if "extrapolated" in r}
         # Frequencies, peak loads and the worst joint's DEL first; the clamp-load maxima and
         # DELs are in refinement.csv and report.html.
-        first = [k for k in q if k.startswith(("fd", "peak", "DEL strain", "DEL bending", "F_", "M_", "tip",
-                                               "decay"))]
+        first = [k for k in q if k.startswith(("fd", "peak", "DEL strain", "DEL bending", "fatigue life", "F_", "M_",
+                                               "tip", "decay"))]
         shown = (first or list(q))[:10]
         lines.append("  converged values (Richardson over n = "
                      + ", ".join(str(n) for n in s["refinement"]["n"]) + "):")

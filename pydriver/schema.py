@@ -19,6 +19,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from pydriver.design_measures import OBJECTIVES
+
 INF = math.inf
 
 
@@ -303,16 +305,17 @@ def _keys() -> list[Key]:
             doc="deck keys to differentiate the results by: 'group.key' (a scalar, or every element of a "
                 "per-body or per-joint key moved together) or 'group.key(i)' (element i); any key this "
                 "reference marks differentiable, at most 64; static runs write d(reactions and joint loads)/"
-                "d(parameter), modal runs d(frequency)/d(parameter), flight runs d(reaction extremes, peak and "
-                "amplitude joint loads, damage per hour and DELs)/d(parameter) of the periodic revolution (not "
-                "for keys that move a support or change the period) to sensitivities.csv (docs/model.md, "
+                "d(parameter), modal runs d(frequency)/d(parameter), flight and dynamic runs d(reaction extremes, "
+                "peak and amplitude joint loads, damage per hour and DELs)/d(parameter) of the periodic "
+                "revolution or the whole record (flight: not for the rotor speed, which changes the period) "
+                "to sensitivities.csv (docs/model.md, "
                 "\"Design sensitivities\")",
             allowed="1 ... 64 names of differentiable keys",
             note="a name is a key of this reference marked differentiable, as group.key or group.key(i)"))
     # The optimiser (analysis = 'design'; pydriver/design_problem.py, docs/model.md "Design optimisation").
-    add(Key("design", "objective", "str", choices=("max_reaction_force", "max_joint_moment", "neg_first_frequency"),
-            doc="analysis = 'design': what is minimised: the largest support force |F| of the equilibrium, the "
-                "largest joint moment sqrt(bending^2 + torsion^2), or minus the first undamped frequency"))
+    add(Key("design", "objective", "str", choices=tuple(OBJECTIVES),
+            doc="analysis = 'design': what is minimised (the registry pydriver/design_measures.py): "
+                + "; ".join(f"'{m.name}' [{m.unit}], {m.doc}" for m in OBJECTIVES.values())))
     add(Key("design", "lower", "real", "list", "*", low=-1.0e9, high=1.0e9,
             doc="analysis = 'design': lower bound of each parameter, in the order of parameters and in its unit "
                 "(degrees for an angle); the deck's value must lie within the bounds"))

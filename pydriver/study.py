@@ -104,6 +104,10 @@ def run_study(name: str, out: Path, inputs: Path | None = None) -> str:
             plot_shapes(tables, out / f"uh60_part{part}_rest_vs_hover.png",
                         f"UH-60 cable part {part}: rest vs hover (thesis Figures 5.6/5.12)")
         return f"wrote {out}/uh60_part1_rest_vs_hover.png, uh60_part2_rest_vs_hover.png"
+    if name == "design":
+        from pydriver.design_study import design_study, study_lines
+        study = design_study(inputs / "uh60_part2_design_flight.nml", out)
+        return "\n".join(study_lines(study) + [f"wrote {out}/design_study.json"])
     deck = inputs / "uh60_part2_modal.nml"
     if name == "cy-sweep":
         c = np.r_[1.0, np.arange(2.0, 71.0, 2.0)]

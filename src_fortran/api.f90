@@ -622,7 +622,7 @@ contains
   !> F(model handles(i, k)) / h(k) (handle 0: this model).
   subroutine rc_parameter_sensitivity(handle, settings_real, settings_int, t0, nq, q0, v0, np, npts, handles, &
                                       offsets, weights, h, pbar, sq0, sv0, nt, t, q, v, q_start, v_start, sq, sv, &
-                                      stats, stat, key, msg)
+                                      sq_start, sv_start, stats, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
     real(c_double), intent(in) :: settings_real(4)  !< rtol, atol, atol_multiplier, h_max
     integer(c_int), intent(in) :: settings_int(5)   !< as rc_dynamic_start
@@ -639,6 +639,7 @@ contains
     real(c_double), intent(out) :: q(nq, nt), v(nq, nt)  !< states at t
     real(c_double), intent(out) :: q_start(nq), v_start(nq)  !< consistent start
     real(c_double), intent(out) :: sq(nq, nt, np), sv(nq, nt, np)  !< sensitivities at t
+    real(c_double), intent(out) :: sq_start(nq, np), sv_start(nq, np)  !< consistent start sensitivities
     integer(c_int), intent(out) :: stats(6)       !< as rc_monodromy
     integer(c_int), intent(out) :: stat           !< status
     character(len=64), intent(out) :: key         !< input at fault
@@ -649,7 +650,7 @@ contains
     type(solver_stats) :: st
     integer :: n_sens, i, k
     q = 0.0_dp; v = 0.0_dp; sq = 0.0_dp; sv = 0.0_dp; stats = 0
-    q_start = q0; v_start = v0
+    q_start = q0; v_start = v0; sq_start = sq0; sv_start = sv0
     model => model_of(handle, error)
     if (error%code == 0) then
       if (nq /= model%nq) call fatal_error(error, 'rc_parameter_sensitivity: wrong sizes')
@@ -673,7 +674,7 @@ contains
     end if
     if (error%code == 0) then
       call parameter_sensitivity_run(model, points, pbar, settings_from_arrays(settings_real, settings_int), t0, &
-                                     q_start, v_start, sq0, sv0, t, q, v, sq, sv, st, n_sens, error)
+                                     q_start, v_start, sq0, sv0, t, q, v, sq, sv, st, n_sens, error, sq_start, sv_start)
       stats = [st%steps, st%residual_evals, st%jacobian_evals, st%error_test_failures, st%convergence_failures, &
                n_sens]
     end if

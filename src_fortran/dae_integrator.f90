@@ -22,7 +22,8 @@ module rotorcable_dae_integrator
   implicit none
   private
   public :: integrator_settings, settings_from_arrays, solver_stats, consistent_start, dae_session, session_start, &
-            session_advance, session_end, integrate, LINEAR_SOLVER_BLOCK, LINEAR_SOLVER_DENSE, LINEAR_SOLVER_CHAIN
+            session_advance, session_end, integrate, session_step_onto_switch, session_restart, &
+            LINEAR_SOLVER_BLOCK, LINEAR_SOLVER_DENSE, LINEAR_SOLVER_CHAIN
 
   integer, parameter :: LINEAR_SOLVER_BLOCK = 1  !< Schur-complement factorisation (ggl_linear_solver)
   integer, parameter :: LINEAR_SOLVER_DENSE = 2  !< SUNDIALS's dense LU of the whole matrix
@@ -277,6 +278,32 @@ contains
     if (error%code /= 0) s%failed = .true.
     call collect_stats(s)
   end subroutine session_advance
+
+  !> Step onto the next discontinuity of the loads if it lies at or before t_limit, without
+  !> restarting there (a caller with state of its own beside IDA's, the parameter
+  !> sensitivities, reads it first and then calls session_restart).  Returns whether it stepped.
+  logical function session_step_onto_switch(s, t_limit, error) result(stepped)
+    type(dae_session), intent(inout) :: s     !< started session
+    real(dp), intent(in) :: t_limit           !< latest time to stop at [s]
+    type(error_type), intent(inout) :: error  !< status
+    stepped = .false.
+    if (size(s%t_switch) == 0) return
+    if (s%t_switch(1) > t_limit) return
+    call advance_to(s, s%t_switch(1), error)
+    if (error%code /= 0) then
+      s%failed = .true.
+      return
+    end if
+    stepped = .true.
+  end function session_step_onto_switch
+
+  !> Restart IDA at the discontinuity the session stands on (after session_step_onto_switch).
+  subroutine session_restart(s, error)
+    type(dae_session), intent(inout) :: s     !< session on a discontinuity
+    type(error_type), intent(inout) :: error  !< status
+    call restart(s, error)
+    if (error%code /= 0) s%failed = .true.
+  end subroutine session_restart
 
   !> IDASolve to t_target within what is left of the run's step budget; a spent budget
   !> becomes an error that says where and, near a joint singularity, why.

@@ -18,7 +18,8 @@ module rotorcable_ida_binding
             IDAGetNumErrTestFails, IDAGetNumNonlinSolvConvFails, IDASetErrHandlerFn, IDA_NORMAL, &
             IDASetJacFn, SUNDenseMatrix_Data, IDAGetNumLinSolvSetups, IDAGetCurrentCj, IDAGetCurrentY, &
             IDAGetCurrentTime, IDASensInit, IDASensSVtolerances, IDASetSensErrCon, &
-            IDAGetSens, IDASensFree, IDAGetSensNumResEvals, IDAGetSensNumNonlinSolvIters, IDA_STAGGERED, IDASetInitStep
+            IDAGetSens, IDASensFree, IDASensReInit, IDAGetSensNumResEvals, IDAGetSensNumNonlinSolvIters, &
+            IDA_STAGGERED, IDASetInitStep
 
   public :: sun_linear_solver, sun_linear_solver_ops, SUNLINEARSOLVER_DIRECT, SUNLINEARSOLVER_MATRIX_EMBEDDED, &
             SUNLS_SUCCESS, SUNLS_LUFACT_FAIL
@@ -257,6 +258,13 @@ module rotorcable_ida_binding
       import :: c_ptr
       type(c_ptr), value :: mem
     end subroutine IDASensFree
+    !> Restart the sensitivities' history (after IDAReInit at a discontinuity of the loads).
+    integer(c_int) function IDASensReInit(mem, ism, ys0, yps0) bind(C, name='IDASensReInit')
+      import :: c_int, c_ptr
+      type(c_ptr), value :: mem
+      integer(c_int), value :: ism
+      type(c_ptr), value :: ys0, yps0
+    end function IDASensReInit
     integer(c_int) function IDAGetSensNumResEvals(mem, n) bind(C, name='IDAGetSensNumResEvals')
       import :: c_int, c_ptr, c_long
       type(c_ptr), value :: mem

@@ -30,10 +30,10 @@ module rotorcable_parameter_sensitivity
   use rotorcable_ggl_residual, only: ida_user_data, ggl_residual_dense, ggl_residual_tangent
   use rotorcable_ida_binding, only: N_VNew_Serial, N_VDestroy, N_VGetArrayPointer, IDASensInit, &
                                     IDASensSVtolerances, IDASetSensErrCon, IDAGetSens, IDASensFree, &
-                                    IDAGetSensNumResEvals, IDA_STAGGERED, IDASetInitStep
+                                    IDAGetSensNumResEvals, IDA_STAGGERED, IDASetInitStep, IDASensReInit, IDAReInit
   use rotorcable_nvector_kernels, only: use_fast_kernels
   use rotorcable_dae_integrator, only: integrator_settings, solver_stats, dae_session, session_start, &
-                                       session_advance, session_end
+                                       session_advance, session_end, session_step_onto_switch, session_restart
   implicit none
   private
   public :: model_pointer, difference_points, parameter_sensitivity_run
@@ -68,7 +68,7 @@ contains
   !> np parameters, starting from the state sensitivities (sq0, sv0); returns the states and
   !> the sensitivities (s_q, s_v) at every output time.
   subroutine parameter_sensitivity_run(model, points, pbar, settings, t0, q0, v0, sq0, sv0, t_out, q_out, v_out, &
-                                       sq_out, sv_out, stats, sens_residual_evals, error)
+                                       sq_out, sv_out, stats, sens_residual_evals, error, sq_start, sv_start)
     type(model_type), intent(inout), target :: model  !< the run's model
     type(difference_points), intent(inout), target :: points  !< rebuilt models and weights
     real(dp), intent(in) :: pbar(:)                   !< (np) parameter scales: atol of s_k = atol / pbar_k
@@ -82,6 +82,7 @@ contains
     type(solver_stats), intent(out) :: stats          !< solver statistics
     integer, intent(out) :: sens_residual_evals       !< sensitivity residual evaluations (all columns at once)
     type(error_type), intent(inout) :: error          !< status
+    real(dp), intent(out), optional :: sq_start(:, :), sv_start(:, :)  !< (nq, np) the consistent start sensitivities
     type(dae_session) :: s
     type(c_ptr), allocatable, target :: ys(:), yps(:), atols(:)
     real(c_double), pointer :: col(:), base_atol(:)
@@ -95,14 +96,10 @@ contains
     points%base => model
     call session_start(s, model, settings, t0, q0, v0, error)
     if (error%code == 0) then
-      if (size(s%t_switch) > 0) then
-        if (s%t_switch(1) <= t_out(size(t_out))) call fatal_error(error, 'parameter sensitivities need loads '// &
-          'without switch times within the run (IDAS would have to restart them at a pulse edge)')
-      end if
-    end if
-    if (error%code == 0) then
       allocate (ys0(n, np), yps0(n, np))
       call initial_sensitivities(model, points, t0, q0, v0, sq0, sv0, ys0, yps0, error)
+      if (present(sq_start)) sq_start = ys0(1:nq, :)
+      if (present(sv_start)) sv_start = ys0(nq + 1:2*nq, :)
     end if
     if (error%code == 0) then
       allocate (ys(np), yps(np), atols(np))
@@ -145,6 +142,14 @@ contains
     if (error%code == 0) then
       ! One output time at a time: IDAGetSens interpolates the sensitivities at the time reached.
       do i = 1, size(t_out)
+        ! A pulse edge on the way: the state is restarted there (IDAReInit), and so must the
+        ! sensitivities be.  s_q, s_v are continuous across it (the switch times do not depend
+        ! on p); s_v' and s_lambda jump with the loads and are made consistent again.
+        do while (session_step_onto_switch(s, t_out(i), error))
+          call restart_sensitivities(s, model, points, ys, yps, n, np, error)
+          if (error%code /= 0) exit
+        end do
+        if (error%code /= 0) exit
         call session_advance(s, t_out(i:i), q_out(:, i:i), v_out(:, i:i), error)
         if (error%code /= 0) exit
         call check(IDAGetSens(s%mem, tret, c_loc(ys)), 'IDAGetSens', s, error)
@@ -170,6 +175,54 @@ contains
       end do
     end if
   end subroutine parameter_sensitivity_run
+
+  !> At a discontinuity of the loads (the session stands on it): read s, restart the state, make
+  !> (s, s') consistent with the loads after the switch and restart IDAS's sensitivity history.
+  subroutine restart_sensitivities(s, model, points, ys, yps, n, np, error)
+    type(dae_session), intent(inout) :: s     !< session on the discontinuity
+    type(model_type), intent(inout) :: model  !< the run's model
+    type(difference_points), intent(inout) :: points  !< rebuilt models and weights
+    type(c_ptr), intent(in), target :: ys(:), yps(:)  !< IDAS's sensitivity vectors
+    integer, intent(in) :: n, np              !< unknowns, parameters
+    type(error_type), intent(inout) :: error  !< status
+    real(c_double), pointer :: col(:), y(:), yd(:)
+    real(dp) :: sq(model%nq, np), sv(model%nq, np), ys1(n, np), yps1(n, np), q(model%nq), v(model%nq)
+    real(dp) :: vd(model%nq), la(model%nc)
+    real(c_double) :: tret
+    integer :: k, nq, info
+    nq = model%nq
+    call check(IDAGetSens(s%mem, tret, c_loc(ys)), 'IDAGetSens', s, error)
+    if (error%code /= 0) return
+    do k = 1, np
+      call c_f_pointer(N_VGetArrayPointer(ys(k)), col, [n])
+      sq(:, k) = col(1:nq); sv(:, k) = col(nq + 1:2*nq)
+    end do
+    call session_restart(s, error)
+    if (error%code /= 0) return
+    call c_f_pointer(N_VGetArrayPointer(s%yy), y, [n])
+    q = y(1:nq); v = y(nq + 1:2*nq)
+    ! The state's rates after the switch too (the session restarts from the rates before it):
+    ! with a fixed first step (IDASetInitStep) a stale v' is an O(h |jump of v'|) error in v that
+    ! no step above ~1e-13 s passes at rtol 1e-10.
+    call solve_accelerations(model, s%t_now, q, v, vd, la, info)
+    if (info /= 0) then
+      call fatal_error(error, 'parameter sensitivities: singular acceleration system at a pulse edge')
+      return
+    end if
+    call c_f_pointer(N_VGetArrayPointer(s%yp), yd, [n])
+    yd = 0.0_dp; yd(1:nq) = v; yd(nq + 1:2*nq) = vd
+    y(2*nq + 1:2*nq + model%nc) = la
+    call check(IDAReInit(s%mem, real(s%t_now, c_double), s%yy, s%yp), 'IDAReInit', s, error)
+    if (error%code /= 0) return
+    points%cached = .false.                    ! F_p of the loads before the switch
+    call initial_sensitivities(model, points, s%t_now, q, v, sq, sv, ys1, yps1, error)
+    if (error%code /= 0) return
+    do k = 1, np
+      call c_f_pointer(N_VGetArrayPointer(ys(k)), col, [n]); col = ys1(:, k)
+      call c_f_pointer(N_VGetArrayPointer(yps(k)), col, [n]); col = yps1(:, k)
+    end do
+    call check(IDASensReInit(s%mem, IDA_STAGGERED, c_loc(ys), c_loc(yps)), 'IDASensReInit', s, error)
+  end subroutine restart_sensitivities
 
   !> F_p of parameter k at (t, y, y'): the difference of the rebuilt models' GGL residuals.
   !> A one-sided difference evaluates the run's own model too, so callers evaluate its residual

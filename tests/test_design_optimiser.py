@@ -180,3 +180,57 @@ def test_optimiser_keys_refused_outside_a_design_run(deck_copy):
         pydriver.run_deck(path)
     assert (err.value.group, err.value.key) == ("design", "objective")
     assert "only with &case analysis = 'design'" in err.value.reason
+
+
+# -- a flight objective -------------------------------------------------------------------------
+
+def hover_f1(model: Model) -> float:
+    """The first undamped frequency of a flight deck's hover state (the margin's frequency)."""
+    from pydriver.analyses.hover_modes import hover_model
+    return float(modal_analysis(hover_model(model)).summary["frequencies_hz"][0])
+
+
+def test_flight_damage_optimum_sits_on_the_frequency_edge():
+    # The main job's cable (uh60_part2_design_flight.nml), the length alone in [0.5605, 0.6195] m,
+    # objective the largest damage per flight hour under a 10 % margin from 1/rev ... 8/rev at
+    # 260 rpm.  The damage rises with the length over the whole range (measured on whole flight
+    # runs: 0.0155 at 0.5605 m, 0.0357 at 0.590 m, 0.0669 1/h at 0.6195 m) and the first
+    # frequency falls with it (19.55 Hz at 0.5605 m, 16.37 Hz at 0.590 m, 14.15 Hz at 0.6195 m).
+    # From the deck's 0.590 m (16.37 Hz, inside the 4/rev band 15.60-19.07 Hz, nearer its lower
+    # edge) the optimum is the shortest cable below the band: f1 = 0.9 x 4 x 260/60 = 15.6 Hz
+    # exactly.  The reference is that length by bisection on the hover state's modal analysis
+    # (no optimiser, no sensitivities).  SLSQP holds the constraint to its tolerance 1e-6 on
+    # f1 / (260/60 Hz), 4.3e-6 Hz, which is 4e-8 m at df1/dL ~ -1e2 Hz/m: bound 1e-6 m.
+    model = Model.from_deck(INPUTS / "uh60_part2_design_flight.nml").with_changes(
+        {"design.parameters": ["chain.total_length"], "design.lower": [0.5605], "design.upper": [0.6195],
+         "design.tolerance": FTOL})
+    result = pydriver.run_deck(model)
+    d = result.summary["design"]
+    assert d["converged"] and d["frequency_margin"]["satisfied"]
+    length = d["parameters"]["chain.total_length"]["optimum"]
+    edge = 0.9 * 4 * 260.0 / 60.0
+    flight = Model.from_deck(INPUTS / "uh60_part2_forward_flight_cable.nml").with_changes({"refinement.levels": 1})
+    lo, hi = 0.590, 0.6195
+    assert hover_f1(flight.with_changes({"chain.total_length": lo})) > edge > \
+        hover_f1(flight.with_changes({"chain.total_length": hi}))
+    while hi - lo > 1e-9:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if hover_f1(flight.with_changes({"chain.total_length": mid})) > edge else (lo, mid)
+    print(f"optimum length {length:.9f} m, bisection {0.5 * (lo + hi):.9f} m; damage "
+          f"{d['objective']['start']:.5g} -> {d['objective']['optimum']:.5g} 1/h in {d['runs']} runs")
+    assert abs(length - 0.5 * (lo + hi)) < 1e-6
+    # The start breaks the margin: holding it costs damage (a longer cable).
+    assert d["objective"]["optimum"] > d["objective"]["start"]
+    # The design's damage is that of its own flight run (summary of the optimum).
+    hot = result.summary["fatigue"]["hotspots"][0]
+    assert hot["damage_per_hour"] == pytest.approx(d["objective"]["optimum"], rel=1e-9)
+
+
+def test_damage_objective_needs_an_sn_curve(tmp_path):
+    text = (INPUTS / "uh60_part2_design_flight.nml").read_text()
+    start = text.index("&fatigue")
+    deck = tmp_path / "no_fatigue.nml"
+    deck.write_text(text[:start] + text[text.index("/", start) + 1:])
+    with pytest.raises(pydriver.DeckError, match="S-N curve") as err:
+        pydriver.run_deck(deck)
+    assert (err.value.group, err.value.key) == ("design", "objective")

@@ -25,7 +25,7 @@ def run(model, run_dir=None, restart=None):
         result = run_refined(model, run_dir, run_single)
     else:
         result = run_single(model, run_dir)
-    if "fatigue" in model.deck.groups and model.analysis not in ("flight", "dynamic"):
+    if "fatigue" in model.deck.groups and "fatigue" not in result.summary:
         result.summary.setdefault("warnings", []).append(
             f"&fatigue is not evaluated: analysis '{model.analysis}' has no load history (flight or dynamic has)")
     attach_sensitivities(model, result, plans)

@@ -29,9 +29,12 @@ sensitivities of a flight"):
    set (a new small cycle, a reversal moving to a neighbouring sample, the worst point around
    the jacket moving to another of the circumferential points).
 
-Parameters that move the constraints (clamp positions and angles, the cable's length, the
-rotor centre) would change the consistent start itself and are refused for flight runs, as is
-the rotor speed (it changes the revolution period): ``DeckError`` on ``&design parameters``.
+Parameters that move the constraint (clamp B's pose, the cable's length) need nothing of their
+own: F_p carries g_p, the core's least-norm correction puts the start sensitivity's particular
+part normal to the constraint manifold (orthogonal to the monodromy's basis N), and the
+periodicity of the tangent coordinates is step 2's formula unchanged (docs/model.md).  The rotor
+speed changes the revolution period and is refused for flight runs: ``DeckError`` on
+``&design parameters``.
 """
 
 from __future__ import annotations
@@ -47,19 +50,11 @@ from pydriver.analyses.fatigue_loads import _components, _record, sn_curve
 from pydriver.analyses.sensitivities import _pack
 from pydriver.errors import DeckError, RunError
 
-#: Keys whose change moves a support or changes the period: refused for flight runs.
-REFUSED = {"chain.total_length": "moves clamp B relative to the cable (the constraint)",
-           "chain.body_length": "moves clamp B relative to the cable (the constraint)",
-           "rotor.rpm": "changes the revolution period", "loads.rotor_rpm": "changes the revolution period",
-           "rotor.centre": "moves the blade and clamp B", "loads.rotor_offset": "moves the blade and clamp B"}
-REFUSED_GROUPS = {"clamp_a": "moves support A (the constraint)", "clamp_b": "moves clamp B (the constraint)",
-                  "blade": "moves clamp B with the blade (the constraint)"}
-#: The constraint residual g of the rebuilt models at one state differs by more than this [m, rad]
-#: only when the parameter moves a support (identical arithmetic otherwise).
-CONSTRAINT_TOL = 1.0e-12
-#: Peak loads per joint: (quantity, time-series unit suffix, unit).
+#: Keys whose change changes the period: refused for flight runs.
+REFUSED = {"rotor.rpm": "changes the revolution period", "loads.rotor_rpm": "changes the revolution period"}
 #: Krylov iterations (one revolution each) for the periodic start's sensitivities without a monodromy.
 MAX_KRYLOV = 60
+#: Peak loads per joint: (quantity, time-series unit suffix, unit).
 PEAK_LOADS = (("bending", "_Nm", "Nm"), ("axial", "_N", "N"), ("torsion", "_Nm", "Nm"), ("strain", "", "-"))
 
 
@@ -68,26 +63,12 @@ def check_flight_plans(model, plans) -> None:
     for pl in plans:
         p = pl.parameter
         dotted = f"{p.group}.{p.key}"
-        reason = REFUSED.get(dotted) or REFUSED_GROUPS.get(p.group)
-        if reason is None:
-            reason = _moves_constraint(model, pl)
+        reason = REFUSED.get(dotted)
         if reason:
             raise DeckError(model.name, "design", "parameters",
                             f"'{p.name}' {reason}: flight sensitivities are given for parameters that leave "
-                            "the supports and the period alone in this version (docs/model.md, \"Design "
+                            "the period alone in this version (docs/model.md, \"Design "
                             "sensitivities of a flight\")")
-
-
-def _moves_constraint(model, pl) -> str | None:
-    """A reason if the rebuilt models' constraint residuals differ at the deck's start shape."""
-    q, lam = model.q0, np.zeros(model.nc)
-    if model.nc == 0:
-        return None
-    for t in 0.25 * np.arange(4):        # a moving clamp: a few times [s]
-        gs = [(m or model).core.static_system(q, lam, t=t)["g"] for _, _, m in pl.points]
-        if max(float(np.max(np.abs(g - gs[0]))) for g in gs) > CONSTRAINT_TOL:
-            return "moves the clamp constraint"
-    return None
 
 
 def _unit(name: str) -> str:
@@ -98,7 +79,8 @@ class _Outputs:
     """The outputs of a flight's revolution and, for each, how its derivative follows from the
     derivative of the time series (selection by the base run, held fixed)."""
 
-    def __init__(self, model, ts):
+    def __init__(self, model, ts, periodic: bool = True):
+        self.periodic = periodic
         self.names, self.units, self.values, self.rules = [], [], [], []
         nb = model.n_bodies
         for name in REACTION_NAMES[:12 if model.nc else 6]:
@@ -126,7 +108,8 @@ class _Outputs:
         """Per joint: damage per flight hour and DEL at its worst point; DELs of the reactions."""
         f = model.deck.values["fatigue"]
         sn = sn_curve(model.deck)
-        record = _record(model, ts, periodic=True)
+        periodic = self.periodic
+        record = _record(model, ts, periodic=periodic)
         points = int(f["circumferential_points"])
         phi = 2.0 * np.pi * np.arange(points) / points
         radius = 0.5 * joint_geometry(model)["diameter"]
@@ -136,24 +119,24 @@ class _Outputs:
             best = None
             for k in range(points):
                 x = scale * (np.sin(phi[k]) * a - np.cos(phi[k]) * b)
-                damage = fatigue.miner_damage(fatigue.cycles(x, periodic=True), sn)
+                damage = fatigue.miner_damage(fatigue.cycles(x, periodic=periodic), sn)
                 if best is None or damage > best[0]:
                     best = (damage, k, x)
             damage, k, x = best
-            cyc = _cycle_set(x)
+            cyc = _cycle_set(x, periodic)
             signal = ("point", j, float(phi[k]))
             self._add(f"damage_per_hour{j}", "1/h", damage * record["per_hour"],
                       ("damage", signal, cyc, sn, record["per_hour"]))
             self._add(f"del_amplitude{j}", unit,
-                      fatigue.damage_equivalent_amplitude(fatigue.cycles(x, periodic=True), sn.exponent,
+                      fatigue.damage_equivalent_amplitude(fatigue.cycles(x, periodic=periodic), sn.exponent,
                                                           record["n_equivalent"]),
                       ("del", signal, cyc, sn.exponent, record["n_equivalent"]))
         for name in REACTION_NAMES[:12 if model.nc else 6]:
             x = ts[name]
             self._add(f"del_{name}", _unit(name),
-                      fatigue.damage_equivalent_amplitude(fatigue.cycles(x, periodic=True), sn.exponent,
+                      fatigue.damage_equivalent_amplitude(fatigue.cycles(x, periodic=periodic), sn.exponent,
                                                           record["n_equivalent"]),
-                      ("del", ("column", name), _cycle_set(x), sn.exponent, record["n_equivalent"]))
+                      ("del", ("column", name), _cycle_set(x, periodic), sn.exponent, record["n_equivalent"]))
 
     def frozen(self, signal_of) -> np.ndarray:
         """The outputs of another time series (``signal_of(spec)``) with this one's selection
@@ -223,14 +206,17 @@ class _CycleSet:
         self.start, self.end, self.counts = start, end, counts
 
 
-def _cycle_set(x) -> _CycleSet:
-    """The cycles of :func:`pydriver.fatigue.cycles` (periodic) with their reversal samples:
-    the closed history is x rotated to its maximum (``close_period``), so its sample i is the
-    signal's sample (i0 + i) mod n."""
+def _cycle_set(x, periodic: bool = True) -> _CycleSet:
+    """The cycles of :func:`pydriver.fatigue.cycles` with their reversal samples.  Periodic: the
+    closed history is x rotated to its maximum (``close_period``), so its sample i is the
+    signal's sample (i0 + i) mod n.  Otherwise the history is x itself, its residue half cycles."""
     x = np.asarray(x, float)
-    n, i0 = x.size, int(np.argmax(x))
-    closed = fatigue.close_period(x)
+    n, i0 = x.size, (int(np.argmax(x)) if periodic else 0)
+    closed = fatigue.close_period(x) if periodic else x
     found = [(r, m, c, a, b) for r, m, c, a, b in fatigue.rainflow.extract_cycles(closed) if r > 0.0]
+    if not periodic:
+        arr = np.array([[a, b, c] for _, _, c, a, b in found]).reshape(-1, 3)
+        return _CycleSet(arr[:, 0].astype(int), arr[:, 1].astype(int), arr[:, 2])
     # Pair the half cycles over the same two extremes into full cycles (fatigue._pair_half_cycles).
     out, pending = [], {}
     for r, m, c, a, b in found:
@@ -296,6 +282,26 @@ def flight_selections(model, ts) -> dict:
             keep = share >= 1.0e-9 * max(float(np.sum(share)), 1e-300)
             out[name] = (rule[1], tuple(cyc.start[keep]), tuple(cyc.end[keep]), tuple(cyc.counts[keep]))
     return out
+
+
+def output_derivatives(model, plans, outputs: _Outputs, ts: dict, t, q, v, sq, sv) -> list[np.ndarray]:
+    """d(output)/dp of every plan from the state sensitivities: central differences of the core's
+    sample function along (q + e s_q, v + e s_v, p + e) on the rebuilt models (no re-solve), fed
+    to the outputs' rules (:meth:`_Outputs.derivatives`).  ``t`` are the sample times, ``q``, ``v``
+    (nq, nt) the states and ``sq``, ``sv`` (nq, nt, np) their sensitivities."""
+    values = []
+    for k, pl in enumerate(plans):
+        runs = []
+        for s, w, m in pl.points:
+            mm = m or model
+            qs, vs = q + s * pl.h * sq[:, :, k], v + s * pl.h * sv[:, :, k]
+            runs.append((w, mm, chunk_columns(mm, t, mm.core.sample(t, qs, vs), qs, vs)))
+
+        def d_signal(spec, runs=runs, h=pl.h):
+            return sum(w * _signal(mm, c, spec) for w, mm, c in runs) / h
+
+        values.append(outputs.derivatives(lambda spec: _signal(model, ts, spec), d_signal))
+    return values
 
 
 def _points(pl) -> tuple:
@@ -400,18 +406,7 @@ def flight_sensitivities(model, plans, period: float, start: dict, ts: dict) -> 
         d_start = red
     periodicity = float(np.max(np.abs(d_end - d_start)) / max(float(np.max(np.abs(d_start))), 1e-300))
     outputs = _Outputs(model, ts)
-    values = []
-    for k, pl in enumerate(plans):
-        runs = []
-        for s, w, m in pl.points:
-            mm = m or model
-            qs, vs = q + s * pl.h * sq[:, :, k], v + s * pl.h * sv[:, :, k]
-            runs.append((w, mm, chunk_columns(mm, t_rel, mm.core.sample(t_rel, qs, vs), qs, vs)))
-
-        def d_signal(spec, runs=runs, h=pl.h):
-            return sum(w * _signal(mm, t, spec) for w, mm, t in runs) / h
-
-        values.append(outputs.derivatives(lambda spec: _signal(model, ts, spec), d_signal))
+    values = output_derivatives(model, plans, outputs, ts, t_rel, q, v, sq, sv)
     sens = _pack(plans, outputs.names, outputs.units, values, [])
     sens["summary"]["method"] = (
         "forward sensitivities through the DAE (IDAS, parameter partials by differences of the rebuilt model "

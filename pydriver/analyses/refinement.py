@@ -91,6 +91,9 @@ def _scalars(summary: dict) -> dict:
     if fat:
         top = fat["hotspots"][0]
         out[f"DEL {fat['sn_quantity']}, worst joint"] = top["del_amplitude"]
+        if top["life_hours"] is not None:
+            # The shortest life over the cable (its worst joint may be another at each n).
+            out["fatigue life [h], shortest"] = top["life_hours"]
         for c in fat["clamp_loads"]:
             out[f"DEL {c['quantity']}"] = c["del_amplitude"]
     decay = summary.get("decay") or {}

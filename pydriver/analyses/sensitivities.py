@@ -71,7 +71,10 @@ def plan(model) -> list[Plan]:
         def build(s):
             if s == 0.0:
                 return None
-            return drop_pulse(model.with_changes(p.changes(model.deck, p.value + s * h)))   # its own model
+            varied = model.with_changes(p.changes(model.deck, p.value + s * h))   # its own model
+            # A dynamic run's partials F_p are of the loads as integrated, pulse included (its
+            # start equilibrium switches the pulse off in scope, dynamic_sensitivities).
+            return varied if model.analysis == "dynamic" else drop_pulse(varied)
 
         models, errors = {}, {}
         for s in (1.0, -1.0):
@@ -256,7 +259,7 @@ def _pack(plans, names, units, values, warnings) -> dict:
 
 
 def attach_sensitivities(model, result, plans: list[Plan]) -> None:
-    """Add the sensitivities of a finished static, modal or flight run to its result (summary and
+    """Add the sensitivities of a finished static, modal, dynamic or flight run to its result (summary and
     ``sensitivities.csv``)."""
     if not plans:
         return
@@ -264,6 +267,9 @@ def attach_sensitivities(model, result, plans: list[Plan]) -> None:
         from pydriver.analyses.flight_sensitivities import flight_sensitivities
         orbit = result.extra["orbit"]
         sens = flight_sensitivities(model, plans, orbit["period_s"], orbit, result.timeseries)
+    elif model.analysis == "dynamic":
+        from pydriver.analyses.dynamic_sensitivities import dynamic_sensitivities
+        sens = dynamic_sensitivities(model, plans, result.timeseries)
     elif model.analysis == "static":
         sens = static_sensitivities(model, plans, result.extra["q"], result.extra["lambda"])
     else:
