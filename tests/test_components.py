@@ -104,3 +104,22 @@ def test_no_load_constructor_reads_a_flat_array_by_position():
         text = path.read_text()
         assert not re.search(r"real\(dp\), intent\(in\) :: reals\(:\)", text), path.name
         assert not re.search(r"\breals\(\d", text), path.name
+
+
+@pytest.mark.parametrize("component", LOADS + SUPPORTS, ids=lambda c: c.kind)
+def test_every_declared_kind_is_known_to_its_factory(component):
+    """The registry and the Fortran factories name the same kinds: an empty block reaches the
+    constructor, which refuses it (a missing parameter, or the rotation springs' joints of
+    this zy chain), instead of the factory's 'unknown ... kind'."""
+    core = three_bodies()
+    add = core.add_support if component in SUPPORTS else core.add_load
+    with pytest.raises(RunError) as exc:
+        add(component.kind, {})
+    assert "unknown" not in str(exc.value)
+    assert "no parameter" in str(exc.value) or component.kind == "rotation_springs"
+
+
+@pytest.mark.parametrize("component", SUPPORTS, ids=lambda c: c.kind)
+def test_every_support_group_has_an_active_key(component):
+    """support_of names '&group active' when two supports are switched on."""
+    assert lookup(component.group, "active") is not None and lookup(component.group, "active").type == "bool"
