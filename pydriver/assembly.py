@@ -15,9 +15,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pydriver.components import add_loads, support_motion_parameters, support_of
 from pydriver.core import CoreModel
 from pydriver.deckfile import Deck
-from pydriver.motions import blade_azimuth0, rotor, support_motion
+from pydriver.motions import blade_azimuth0, rot_y, rot_z, rotor, support_motion
 from pydriver.shape_resample import chain_lengths
 
 DEG = np.pi / 180.0
@@ -33,16 +34,6 @@ class Bodies:
     masses: np.ndarray
     locked: np.ndarray            #: joint j locked (bool)
     physical: bool                #: joint constants from &cable
-
-
-def rot_z(a: float) -> np.ndarray:
-    c, s = np.cos(a), np.sin(a)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
-def rot_y(b: float) -> np.ndarray:
-    c, s = np.cos(b), np.sin(b)
-    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
 
 
 def bodies(deck: Deck) -> Bodies:
@@ -134,8 +125,9 @@ def build(deck: Deck) -> tuple[CoreModel, dict]:
     core : CoreModel
     description : dict
         What was built, as plain numbers: ``bodies``, ``first_coord``, the joint constants
-        ``stiffness``/``damping``/``rest`` per coordinate, ``clamp`` (position, rotation or
-        None), ``rotor`` (or None), and the deck's start state ``q0``, ``v0`` [rad, rad/s].
+        ``stiffness``/``damping``/``rest`` per coordinate, ``support`` (the kind of support B
+        or None), ``clamp`` (position, rotation of a support that holds both, or None),
+        ``rotor`` (or None), and the deck's start state ``q0``, ``v0`` [rad, rad/s].
     """
     b = bodies(deck)
     gamma = np.asarray(deck["shape.gamma_deg"], float) * DEG
@@ -149,45 +141,29 @@ def build(deck: Deck) -> tuple[CoreModel, dict]:
                                      np.asarray(deck["shape.beta_rate_deg"]) * DEG)
     first_coord = _first_coords(b.locked, {"zy": 2, "xy": 2, "xyz": 3}[deck["chain.joint"]])
     c, d, rest = joint_constants(deck, b)
-    if rotation_vector_springs(deck, b):
-        # Per free joint (K_x, K_y, K_z, D_x, D_y, D_z) about its child's axes; rest straight.
-        core.add_load("rotation_springs", reals=np.column_stack([c.reshape(-1, 3), d.reshape(-1, 3)]).ravel(),
-                      context="&cable")
-    elif np.any(c != 0.0) or np.any(d != 0.0):
-        core.add_load("joint_springs", reals=np.concatenate([c, d, rest]), context="&springs")
-    g = np.asarray(deck["loads.gravity"], float)
-    if np.any(g != 0.0):
-        core.add_load("gravity", reals=g)
-    if deck["loads.pulse_body"] > 0:
-        core.add_load("pulse", ints=[deck["loads.pulse_body"]],
-                      reals=list(deck["loads.pulse_force"]) + [deck["loads.pulse_start"], deck["loads.pulse_end"]])
-    if np.any(deck["loads.tip_force"] != 0.0):
-        core.add_load("tip_force", reals=deck["loads.tip_force"])
-    if "drag" in deck.groups:
-        stream = np.asarray(deck["drag.stream_velocity"], float) - np.array([deck["drag.forward_speed"], 0.0, 0.0])
-        core.add_load("drag", reals=np.concatenate([[deck["drag.air_density"]], stream, deck["drag.cd"]]))
+    # Every load from its declaration in the component registry (pydriver/components.py).
+    add_loads(core, deck, {"stiffness": c, "damping": d, "rest": rest,
+                           "rotation_vector": rotation_vector_springs(deck, b)})
     rot = rotor(deck)
     if rot is not None:
         core.set_rotor(rot["profile"], rot["centre"], rot["params"], rot["hub"], rot["body_couples"])
-    clamp = None
-    if deck["clamp_b.active"]:
-        if deck["clamp_b.from_start"]:
-            shape = core.shape(q0)
-            clamp = (shape["joints"][-1], shape["last_rotation"])
-        else:
-            clamp = (np.asarray(deck["clamp_b.position"], float),
-                     rot_z(deck["clamp_b.gamma_deg"] * DEG) @ rot_y(deck["clamp_b.beta_deg"] * DEG))
-    b_position = clamp[0] if clamp is not None else np.zeros(3)
+    # Support B from its declaration in the registry; its position places the blade and moves A.
+    support = support_of(deck)
+    params = support.pack(deck, {"start_shape": core.shape(q0)}) if support is not None else {}
+    b_position = params.get("position", np.zeros(3))
     if rot is not None:
         rot["azimuth0"] = blade_azimuth0(deck, rot, b_position)
     motion_a = support_motion(deck, rot, "clamp_a", b_position)
     if motion_a[0]:
         core.set_base(np.zeros(3), base_rotation, motion_a)
-    if clamp is not None:
-        core.set_clamp(clamp[0], clamp[1], support_motion(deck, rot, "clamp_b", b_position))
+    if support is not None:
+        params.update(support_motion_parameters(support, deck, rot, b_position))
+        core.add_support(support.kind, params, context=support.context, deck_keys=support.deck_keys)
     core.finish()
+    # The pose of a support that holds the orientation too (clamp B), for pydriver.scene.
+    clamp = (params["position"], params["rotation"].reshape(3, 3, order="F")) if "rotation" in params else None
     return core, {"bodies": b, "first_coord": first_coord, "stiffness": c, "damping": d, "rest": rest,
-                  "base_rotation": base_rotation,
+                  "base_rotation": base_rotation, "support": support.kind if support is not None else None,
                   "clamp": clamp, "rotor": rot, "q0": q0, "v0": v0}
 
 

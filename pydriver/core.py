@@ -115,6 +115,26 @@ def _reals(a) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=float).reshape(-1)
 
 
+def _parameter_arrays(params: dict) -> tuple:
+    """A component's parameters ``{name: value}`` as the flat layout of its parameter block
+    (src_fortran/parameter_block.f90), the one place it is built: the real arrays' names
+    (blank-separated), sizes and values, then the same for the integer arrays.  A value is an
+    integer array when its numpy kind is integer or bool (a body index, a hinge count), real
+    otherwise.  Names are single words: the block splits them at blanks."""
+    real_names, real_sizes, reals, int_names, int_sizes, ints = [], [], [], [], [], []
+    for name, value in params.items():
+        if not name or " " in name or len(name) > 32:
+            raise ValueError(f"parameter name {name!r}: one word of at most 32 characters")
+        a = np.asarray(value)
+        if a.dtype.kind in "iub":
+            int_names.append(name), int_sizes.append(a.size), ints.append(_ints(a))
+        else:
+            real_names.append(name), real_sizes.append(a.size), reals.append(_reals(a))
+    # f2py passes an empty Python string as a zero-length argument; one blank names nothing too.
+    return (" ".join(real_names) or " ", _ints(real_sizes), _reals(np.concatenate(reals) if reals else []),
+            " ".join(int_names) or " ", _ints(int_sizes), _ints(np.concatenate(ints) if ints else []))
+
+
 class CoreModel:
     """A model built in the core from its flat description; freed with the object.
 
@@ -141,20 +161,24 @@ class CoreModel:
             self.handle = None
 
     # -- building -------------------------------------------------------------------------
-    def add_load(self, kind: str, ints=(), reals=(), context: str = ""):
-        """Add a load of a kind the core's load factory knows."""
-        stat, key, msg = _api.rc_model_add_load(self.handle, kind, _ints(ints), _reals(reals))
-        _raise(self.deck, stat, key, msg, context)
+    def add_load(self, kind: str, params: dict, context: str = "", deck_keys: dict | None = None):
+        """Add a load of a kind the core's load factory knows, with its parameters by name
+        (``{name: value}``, as pydriver.components declares them).  A constructor that refuses
+        a value names its parameter; ``deck_keys`` ({parameter: 'group.key'}) turns that name
+        into the deck key that fed it, so the error is a DeckError naming the key."""
+        stat, key, msg = _api.rc_model_add_load(self.handle, kind, *_parameter_arrays(params))
+        _raise(self.deck, stat, (deck_keys or {}).get(_text(key), key), msg, context)
 
     def set_base(self, position, rotation, motion=((), ())):
         stat, key, msg = _api.rc_model_set_base(self.handle, _reals(position), np.asfortranarray(rotation, float),
                                                 _ints(motion[0]), _reals(motion[1]))
         _raise(self.deck, stat, key, msg, "clamp A")
 
-    def set_clamp(self, position, rotation, motion=((), ())):
-        stat, key, msg = _api.rc_model_set_clamp(self.handle, _reals(position), np.asfortranarray(rotation, float),
-                                                 _ints(motion[0]), _reals(motion[1]))
-        _raise(self.deck, stat, key, msg, "clamp B")
+    def add_support(self, kind: str, params: dict, context: str = "", deck_keys: dict | None = None):
+        """Add support B, of a kind the core's support factory knows, with its parameters by name
+        (as :meth:`add_load`)."""
+        stat, key, msg = _api.rc_model_add_support(self.handle, kind, *_parameter_arrays(params))
+        _raise(self.deck, stat, (deck_keys or {}).get(_text(key), key), msg, context)
 
     def set_rotor(self, profile: str, centre, params, hub: bool, body_couples: bool):
         stat, key, msg = _api.rc_model_set_rotor(self.handle, ROTOR_PROFILES[profile], _reals(centre),

@@ -15,10 +15,23 @@ from __future__ import annotations
 import numpy as np
 
 from pydriver.deckfile import Deck
+from pydriver.schema import lookup
 
 DEG = np.pi / 180.0
 RPM = 2.0 * np.pi / 60.0
 ANGLE_CONSTANT, ANGLE_FOURIER, ANGLE_TABLE, ANGLE_ROTOR = 0, 1, 2, 3
+
+
+def rot_z(a: float) -> np.ndarray:
+    """Rotation by a [rad] about z (the thesis's gamma)."""
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def rot_y(b: float) -> np.ndarray:
+    """Rotation by b [rad] about y (the thesis's beta)."""
+    c, s = np.cos(b), np.sin(b)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
 
 
 def rotor(deck: Deck) -> dict | None:
@@ -102,12 +115,14 @@ def blade_hinges(deck: Deck, azimuth0: float) -> list:
 
 
 def support_motion(deck: Deck, rot: dict | None, which: str, clamp_position) -> tuple[list, list]:
-    """The hinges that move support A ('clamp_a') or B ('clamp_b'), as (ints, reals)."""
+    """The hinges that move support A ('clamp_a') or B (its deck group), as (ints, reals): the
+    rotor's carrying round in the inertial frame, and the blade's hinges for a group whose
+    ``moves_with`` is 'blade' (a group without that key does not move with the blade)."""
     hinges = []
     if rot is not None and not rot["hub"]:
         # Inertial frame: the support is carried round by the rotor about its axis.
         hinges.append(((0.0, 0.0, 1.0), rot["centre"], ANGLE_ROTOR, [0.0]))
-    if deck[f"{which}.moves_with"] == "blade":
+    if lookup(which, "moves_with") is not None and deck[f"{which}.moves_with"] == "blade":
         azimuth0 = blade_azimuth0(deck, rot, clamp_position) if rot is not None else 0.0
         hinges += blade_hinges(deck, azimuth0)
     return _hinges_flat(hinges) if hinges else ([], [])

@@ -153,6 +153,9 @@ def _keys() -> list[Key]:
     add(Key("clamp_b", "beta_deg", "real", unit="deg", low=-360.0, high=360.0, doc="orientation of the last body, thesis beta", differentiable=True))
     add(Key("clamp_b", "moves_with", "str", default="hub", choices=("hub", "blade"),
             doc="clamp B is fixed on the hub, or moves with the blade (&blade)"))
+    add(Key("ball_b", "active", "bool", default=False,
+            doc="ball B holds the tip at a point, the last body free to turn (3 constraint rows; instead of clamp B)"))
+    add(Key("ball_b", "position", "real", "vec3", "m", low=-1.0e3, high=1.0e3, doc="ball point p_B (the chain's tip)"))
     # &loads -------------------------------------------------------------------------------
     add(Key("loads", "gravity", "real", "vec3", "m/s^2", (0.0, 0.0, -9.81), "gravitational acceleration", low=-1.0e3, high=1.0e3, differentiable=True))
     add(Key("loads", "rotor_rpm", "real", unit="rpm", **NONNEG, high=1.0e5, tiny=1.0e-3,
@@ -248,6 +251,13 @@ def _keys() -> list[Key]:
             doc="free-stream air velocity in the inertial frame", differentiable=True))
     add(Key("drag", "forward_speed", "real", unit="m/s", default=0.0, **NONNEG, high=1.0e3,
             doc="forward flight speed along the inertial +x axis (adds -V e_x to the stream)", differentiable=True))
+    # &anchor: a spring from a joint point to a fixed point -------------------------------------
+    add(Key("anchor", "joint", "int", low=1, high=2001,
+            doc="joint point P_j the spring holds (1 = at support A, n_bodies + 1 = the tip)"))
+    add(Key("anchor", "point", "real", "vec3", "m", low=-1.0e3, high=1.0e3,
+            doc="anchor point, fixed in the frame of the equations (the hub frame of a rotor run)"))
+    add(Key("anchor", "stiffness", "real", unit="N/m", **POS, high=1.0e9,
+            doc="spring constant k: force -k (P_j - point), zero rest length"))
     # &fatigue ------------------------------------------------------------------------------
     add(Key("fatigue", "sn_quantity", "str", default="strain", choices=("strain", "bending"),
             doc="what the S-N curve is written on: jacket surface strain [-] or bending moment [Nm]"))
@@ -398,12 +408,14 @@ GROUP_DOCS = {
     "cable": "physical cable parameters; the joint constants are derived for any n",
     "clamp_a": "support A at the start of the chain (the deck origin); joint 1 turns relative to its frame",
     "clamp_b": "support B holding the last body",
+    "ball_b": "support B as a ball joint: the tip held at a point, the last body free to turn",
     "loads": "gravity, rotor speed (legacy), force pulse, tip force",
     "rotor": "the rotor: speed profile, centre, and the frame the equations are written in",
     "blade": "the blade's flap, lead-lag and pitch motion, carried by a support that moves with the blade",
     "campbell": "Campbell diagram: rotor speeds, operating range, tracked modes, harmonics",
     "resonance": "resonance margins: the separation of every mode from the rotor harmonics at the operating speed",
     "drag": "aerodynamic drag by the cross-flow principle",
+    "anchor": "a linear spring from one joint point of the chain to a fixed point (a tether)",
     "fatigue": "fatigue per joint: S-N (Basquin) curve, rainflow around the jacket, hotspots",
     "limits": "limits the results are judged against (flagged in the summary and report.html)",
     "design": "design sensitivities (the deck keys the results are differentiated by) and the optimiser of analysis = 'design'",

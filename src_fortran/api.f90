@@ -12,7 +12,8 @@ module rotorcable_api
   use rotorcable_model_registry, only: register_model, lookup_model, release_model, register_session, &
                                        lookup_session, release_session, open_sessions
   use rotorcable_model_update, only: update_parameter, parameter_value
-  use rotorcable_model_builder, only: build_chain, build_load, build_base, build_clamp, build_rotor, &
+  use rotorcable_parameter_block, only: parameter_block, block_from_flat
+  use rotorcable_model_builder, only: build_chain, build_load, build_base, build_support, build_rotor, &
                                       build_finish, thesis_to_coordinates
   use rotorcable_statics, only: static_settings, static_result, solve_static, static_system
   use rotorcable_modal, only: modal_analysis, reduced_matrices
@@ -24,7 +25,7 @@ module rotorcable_api
   use rotorcable_sampling, only: sample_state, joint_loads, shape_of, support_motion
   implicit none
   private
-  public :: rc_model_new, rc_model_free, rc_model_add_load, rc_model_set_base, rc_model_set_clamp, &
+  public :: rc_model_new, rc_model_free, rc_model_add_load, rc_model_set_base, rc_model_add_support, &
             rc_model_set_rotor, rc_model_finish, rc_thesis_coordinates, rc_shape, rc_static, &
             rc_static_system, rc_modal, rc_modal_matrices, rc_dynamic_start, rc_dynamic_advance, rc_dynamic_free, rc_sample, &
             rc_monodromy, rc_model_update, rc_model_parameter, rc_constraint_residual, rc_consistent_start, &
@@ -87,20 +88,30 @@ contains
     call release_model(handle)
   end subroutine rc_model_free
 
-  !> Add a load of the given kind with its flat parameters (rotorcable_loads_factory).
-  subroutine rc_model_add_load(handle, kind, ni, ints, nr, reals, stat, key, msg)
+  !> Add a load of the given kind (rotorcable_loads_factory) with its parameter block, sent flat
+  !> (rotorcable_parameter_block): named real arrays and named integer arrays.
+  subroutine rc_model_add_load(handle, kind, real_names, nrn, real_sizes, nr, reals, int_names, nin, int_sizes, &
+                               ni, ints, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
     character(len=*), intent(in) :: kind          !< load kind
-    integer(c_int), intent(in) :: ni, nr          !< parameter counts
-    integer(c_int), intent(in) :: ints(ni)        !< integer parameters
-    real(c_double), intent(in) :: reals(nr)       !< real parameters
+    character(len=*), intent(in) :: real_names    !< names of the real arrays, blank-separated
+    integer(c_int), intent(in) :: nrn, nr         !< how many real arrays, real values
+    integer(c_int), intent(in) :: real_sizes(nrn) !< size of each real array
+    real(c_double), intent(in) :: reals(nr)       !< their values, one after the other
+    character(len=*), intent(in) :: int_names     !< names of the integer arrays
+    integer(c_int), intent(in) :: nin, ni         !< how many integer arrays, integer values
+    integer(c_int), intent(in) :: int_sizes(nin)  !< size of each integer array
+    integer(c_int), intent(in) :: ints(ni)        !< their values
     integer(c_int), intent(out) :: stat           !< status
     character(len=64), intent(out) :: key         !< input at fault
     character(len=1024), intent(out) :: msg       !< why
     type(model_type), pointer :: model
+    type(parameter_block) :: params
     type(error_type) :: error
     model => model_of(handle, error)
-    if (error%code == 0) call build_load(model, trim(kind), ints, reals, error)
+    if (error%code == 0) call block_from_flat(trim(kind), real_names, real_sizes, reals, int_names, int_sizes, ints, &
+                                              params, error)
+    if (error%code == 0) call build_load(model, trim(kind), params, error)
     call report(error, stat, key, msg)
   end subroutine rc_model_add_load
 
@@ -122,23 +133,32 @@ contains
     call report(error, stat, key, msg)
   end subroutine rc_model_set_base
 
-  !> Clamp B: reference pose and prescribed motion.
-  subroutine rc_model_set_clamp(handle, position, rotation, ni, motion_ints, nr, motion_reals, stat, key, msg)
+  !> Support B of the given kind (rotorcable_supports_factory) with its parameter block, sent
+  !> flat as for rc_model_add_load.
+  subroutine rc_model_add_support(handle, kind, real_names, nrn, real_sizes, nr, reals, int_names, nin, int_sizes, &
+                                  ni, ints, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
-    real(c_double), intent(in) :: position(3)     !< p_B [m]
-    real(c_double), intent(in) :: rotation(3, 3)  !< R_B
-    integer(c_int), intent(in) :: ni, nr          !< motion description sizes
-    integer(c_int), intent(in) :: motion_ints(ni) !< motion integers
-    real(c_double), intent(in) :: motion_reals(nr)  !< motion reals
+    character(len=*), intent(in) :: kind          !< support kind
+    character(len=*), intent(in) :: real_names    !< names of the real arrays, blank-separated
+    integer(c_int), intent(in) :: nrn, nr         !< how many real arrays, real values
+    integer(c_int), intent(in) :: real_sizes(nrn) !< size of each real array
+    real(c_double), intent(in) :: reals(nr)       !< their values, one after the other
+    character(len=*), intent(in) :: int_names     !< names of the integer arrays
+    integer(c_int), intent(in) :: nin, ni         !< how many integer arrays, integer values
+    integer(c_int), intent(in) :: int_sizes(nin)  !< size of each integer array
+    integer(c_int), intent(in) :: ints(ni)        !< their values
     integer(c_int), intent(out) :: stat           !< status
     character(len=64), intent(out) :: key         !< input at fault
     character(len=1024), intent(out) :: msg       !< why
     type(model_type), pointer :: model
+    type(parameter_block) :: params
     type(error_type) :: error
     model => model_of(handle, error)
-    if (error%code == 0) call build_clamp(model, position, rotation, motion_ints, motion_reals, error)
+    if (error%code == 0) call block_from_flat(trim(kind), real_names, real_sizes, reals, int_names, int_sizes, ints, &
+                                              params, error)
+    if (error%code == 0) call build_support(model, trim(kind), params, error)
     call report(error, stat, key, msg)
-  end subroutine rc_model_set_clamp
+  end subroutine rc_model_add_support
 
   !> The rotor's speed profile and centre, and the frame of the equations.
   subroutine rc_model_set_rotor(handle, kind, centre, np, params, hub, body_couples, stat, key, msg)

@@ -9,15 +9,15 @@ module rotorcable_model_builder
   use rotorcable_model, only: model_type, model_init
   use rotorcable_loads_type, only: load_slot
   use rotorcable_loads_factory, only: new_load
-  use rotorcable_supports_clamp, only: clamp_support, new_clamp
+  use rotorcable_parameter_block, only: parameter_block
+  use rotorcable_supports_factory, only: new_support
   use rotorcable_projection, only: clamp_reach
-  use rotorcable_motion_rigid_motion, only: rigid_motion
   use rotorcable_motion_builder, only: motion_from_flat
   use rotorcable_motion_rotor, only: set_constant_speed, set_runup_speed, set_table_speed, ROTOR_CONSTANT, ROTOR_RUNUP, &
                                      ROTOR_TABLE
   implicit none
   private
-  public :: build_chain, build_load, build_base, build_clamp, build_rotor, build_finish, thesis_to_coordinates
+  public :: build_chain, build_load, build_base, build_support, build_rotor, build_finish, thesis_to_coordinates
 
 contains
 
@@ -45,17 +45,16 @@ contains
   end subroutine build_chain
 
   !> Append a load built by the load factory.
-  subroutine build_load(model, kind, ints, reals, error)
+  subroutine build_load(model, kind, params, error)
     type(model_type), intent(inout) :: model  !< model with its chain
     character(len=*), intent(in) :: kind      !< load kind
-    integer, intent(in) :: ints(:)            !< integer parameters
-    real(dp), intent(in) :: reals(:)          !< real parameters
+    type(parameter_block), intent(in) :: params  !< its parameters by name
     type(error_type), intent(inout) :: error  !< status
     type(load_slot), allocatable :: grown(:)
     integer :: n
     n = size(model%loads)
     allocate (grown(n + 1))
-    call new_load(kind, grown(n + 1), model%chain, ints, reals, error)
+    call new_load(kind, grown(n + 1), model%chain, params, error)
     if (error%code /= 0) return
     grown(1:n) = model%loads
     call move_alloc(grown, model%loads)
@@ -74,20 +73,18 @@ contains
     model%base%moving = size(model%base%motion%hinges) > 0
   end subroutine build_base
 
-  !> Clamp B: its reference pose and an optional prescribed motion.
-  subroutine build_clamp(model, position, rotation, motion_ints, motion_reals, error)
-    type(model_type), intent(inout) :: model  !< model
-    real(dp), intent(in) :: position(3), rotation(3, 3)  !< reference pose of p_B and R_B
-    integer, intent(in) :: motion_ints(:)     !< motion description
-    real(dp), intent(in) :: motion_reals(:)
+  !> Support B at the chain's far end, built by the support factory.
+  subroutine build_support(model, kind, params, error)
+    type(model_type), intent(inout) :: model  !< model with its chain
+    character(len=*), intent(in) :: kind      !< support kind
+    type(parameter_block), intent(in) :: params  !< its parameters by name
     type(error_type), intent(inout) :: error  !< status
-    type(rigid_motion) :: motion
-    type(clamp_support) :: clamp
-    call motion_from_flat(motion_ints, motion_reals, motion, error)
-    if (error%code /= 0) return
-    call new_clamp(clamp, position, rotation, motion)
-    allocate (model%tip, source=clamp)
-  end subroutine build_clamp
+    if (allocated(model%tip)) then
+      call fatal_error(error, 'the chain''s end has a support already')
+      return
+    end if
+    call new_support(kind, model%tip, model%chain, params, error)
+  end subroutine build_support
 
   !> The rotor (speed profile, centre) and the frame of the equations.
   subroutine build_rotor(model, kind, centre, params, hub, body_couples, error)
@@ -121,7 +118,7 @@ contains
     type(model_type), intent(inout) :: model  !< model
     type(error_type), intent(inout) :: error  !< status
     real(dp) :: span, reach, zero(model%chain%n_coords)
-    integer :: n
+    integer :: n, held
     character(len=200) :: buf
     call model_init(model)
     if (model%nc == 0) return
@@ -134,17 +131,17 @@ contains
     end if
     ! The free part cannot span more than its length.
     zero = 0.0_dp
-    if (clamp_reach(model, 0.0_dp, zero, reach, span)) then
-      if (n < 2 .or. span > reach*(1.0_dp + 1.0e-12_dp)) then
-        write (buf, '(a, g0.6, a, g0.6, a)') 'the end clamp is out of reach: the free part of the chain is ', &
+    if (clamp_reach(model, 0.0_dp, zero, reach, span, held)) then
+      if (n - held < 1 .or. span > reach*(1.0_dp + 1.0e-12_dp)) then
+        write (buf, '(a, g0.6, a, g0.6, a)') ' is out of reach: the free part of the chain is ', &
           reach, ' m long but must span ', span, ' m'
-        call fatal_error(error, trim(buf), key='clamp_b.position')
+        call fatal_error(error, trim(model%tip%label)//trim(buf), key=trim(model%tip%position_key))
       else if (span > reach*(1.0_dp - 1.0e-9_dp)) then
         ! At full reach the chain is a straight bar between the clamps: its axial force is not
         ! determined (the constraint Jacobian loses rank), whatever the solver would return.
-        write (buf, '(a, g0.10, a, g0.10, a)') 'clamp B is at full reach (taut): the free part of the chain is ', &
+        write (buf, '(a, g0.10, a, g0.10, a)') ' is at full reach (taut): the free part of the chain is ', &
           reach, ' m long and must span ', span, ' m; give it slack'
-        call fatal_error(error, trim(buf), key='clamp_b.position')
+        call fatal_error(error, trim(model%tip%label)//trim(buf), key=trim(model%tip%position_key))
       end if
     end if
   end subroutine build_finish

@@ -5,7 +5,6 @@ module rotorcable_projection
   use rotorcable_model, only: model_type, positions_at, constraint_residual, constraint_jacobian, &
                               constraint_velocity
   use rotorcable_linalg, only: solve_least_norm, singular_values, thin_svd
-  use rotorcable_supports_clamp, only: clamp_support
   implicit none
   private
   public :: project_positions, project_velocities, constraint_rank_margin, rank_loss_message, clamp_reach
@@ -195,31 +194,34 @@ contains
   end function rank_loss_message
 
   !> The free part of the chain runs from the end of a clamped first body (or from A) to the
-  !> start of the body clamp B holds: its length (the reach) and the distance it must span at
-  !> (t, q).  False when there is no clamp B.
-  logical function clamp_reach(model, t, q, reach, span) result(has_clamp)
+  !> point support B must be reached at (support_type%reach_target: for clamp B the start of
+  !> the body it holds): its length (the reach) and the distance it must span at (t, q).
+  !> False when there is no support B or it has no reach check.
+  logical function clamp_reach(model, t, q, reach, span, held) result(has_clamp)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t                 !< time [s]
     real(dp), intent(in) :: q(:)              !< coordinates
     real(dp), intent(out) :: reach            !< length of the free part [m]
     real(dp), intent(out) :: span             !< distance it must span [m]
-    real(dp) :: start(3)
-    integer :: n
+    integer, intent(out), optional :: held    !< bodies support B holds rigidly
+    real(dp) :: start(3), target(3)
+    integer :: n, n_held
     has_clamp = .false.
     reach = 0.0_dp; span = 0.0_dp
+    if (present(held)) held = 0
+    if (.not. allocated(model%tip)) return
     n = model%chain%n_bodies
     call positions_at(model, t, q)
-    select type (tip => model%tip)
-    type is (clamp_support)
-      has_clamp = .true.
-      start = model%st%joint_point(:, 1)
-      reach = sum(model%chain%length(1:n - 1))
-      if (model%chain%locked(1)) then
-        start = model%st%joint_point(:, 2)
-        reach = reach - model%chain%length(1)
-      end if
-      span = norm2(tip%position - model%chain%length(n)*tip%rotation(:, 3) - start)
-    end select
+    call model%tip%reach_target(model%chain, target, n_held, has_clamp)
+    if (.not. has_clamp) return
+    if (present(held)) held = n_held
+    start = model%st%joint_point(:, 1)
+    reach = sum(model%chain%length(1:n - n_held))
+    if (model%chain%locked(1)) then
+      start = model%st%joint_point(:, 2)
+      reach = reach - model%chain%length(1)
+    end if
+    span = norm2(target - start)
   end function clamp_reach
 
 end module rotorcable_projection

@@ -11,7 +11,6 @@ module rotorcable_sampling
   use rotorcable_kinematics, only: joint_angles
   use rotorcable_joint, only: thesis_angles
   use rotorcable_rotations, only: cross
-  use rotorcable_supports_clamp, only: clamp_support
   implicit none
   private
   public :: sample_state, joint_loads, shape_of, support_motion
@@ -118,11 +117,7 @@ contains
     twists(1:3) = model%base_vel
     twists(4:6) = model%base_omega
     if (.not. allocated(model%tip)) return
-    select type (tip => model%tip)
-    type is (clamp_support)
-      twists(7:9) = tip%lin_velocity
-      twists(10:12) = tip%omega
-    end select
+    call model%tip%motion_twist(twists(7:9), twists(10:12))
   end subroutine support_motion
 
 end module rotorcable_sampling

@@ -7,16 +7,17 @@
 !> the hub rotation's Omega x r; so u is the rotated free stream minus Omega x r minus the
 !> body's own motion (issue 12).  One point per body (its CM): the force converges with n like
 !> any midpoint rule; the moment of the velocity's variation along a turning body is left out.
-!> Parameters: reals = (rho [kg/m^3], V_inf(3) [m/s], C_d(1:n)).
+!> Parameters: air_density [kg/m^3], stream(3) [m/s], cd (one per body).
 module rotorcable_loads_drag
   use rotorcable_kinds, only: dp
-  use rotorcable_errors, only: error_type, fatal_error
+  use rotorcable_errors, only: error_type
   use rotorcable_chain, only: chain_type
   use rotorcable_kinematics, only: chain_state
   use rotorcable_kinematics_tangent, only: chain_tangent
   use rotorcable_rotations, only: cross
   use rotorcable_frame, only: frame_state
   use rotorcable_loads_type, only: load_term, load_slot
+  use rotorcable_parameter_block, only: parameter_block, get_real, get_reals
   implicit none
   private
   public :: drag_load, new_drag
@@ -33,25 +34,21 @@ module rotorcable_loads_drag
 
 contains
 
-  !> Build from the flat parameters.
-  subroutine new_drag(slot, chain, ints, reals, error)
+  !> Build from its parameter block: air_density, stream, cd.
+  subroutine new_drag(slot, chain, params, error)
     type(load_slot), intent(inout) :: slot    !< slot to fill
     type(chain_type), intent(in) :: chain     !< chain description
-    integer, intent(in) :: ints(:)            !< (none)
-    real(dp), intent(in) :: reals(:)          !< rho, V_inf(3), C_d per body
+    type(parameter_block), intent(in) :: params  !< rho [kg/m^3], V_inf(3) [m/s], C_d per body
     type(error_type), intent(inout) :: error  !< status
     type(drag_load) :: load
-    integer :: n
-    n = chain%n_bodies
-    if (size(reals) /= 4 + n) then
-      call fatal_error(error, 'drag needs the air density, the free stream and C_d per body')
-      return
-    end if
+    real(dp) :: cd(chain%n_bodies)
+    call get_real(params, 'air_density', load%density, error)
+    call get_reals(params, 'stream', load%stream, error)
+    call get_reals(params, 'cd', cd, error)
+    if (error%code /= 0) return
     load%label = 'drag'
-    load%density = reals(1)
-    load%stream = reals(2:4)
     ! d_j = 2 R_j: the projected area per length of a cylinder in cross flow.
-    load%cd_area = 0.5_dp*reals(1)*reals(5:4 + n)*2.0_dp*chain%radius*chain%length
+    load%cd_area = 0.5_dp*load%density*cd*2.0_dp*chain%radius*chain%length
     allocate (slot%term, source=load)
   end subroutine new_drag
 

@@ -1,14 +1,15 @@
 !> Weight m_j g at every centre of mass, eq. 4.46; potential -sum m_j g . C_j.
-!> Parameters: reals = (g_x, g_y, g_z) [m/s^2] in the model frame (the rotor axis is vertical,
+!> Parameters: g(3) [m/s^2] in the model frame (the rotor axis is vertical,
 !> so gravity is constant in the hub frame too).
 module rotorcable_loads_gravity
   use rotorcable_kinds, only: dp
-  use rotorcable_errors, only: error_type, fatal_error
+  use rotorcable_errors, only: error_type
   use rotorcable_chain, only: chain_type
   use rotorcable_kinematics, only: chain_state
   use rotorcable_kinematics_tangent, only: chain_tangent
   use rotorcable_frame, only: frame_state
   use rotorcable_loads_type, only: load_term, load_slot
+  use rotorcable_parameter_block, only: parameter_block, get_reals
   implicit none
   private
   public :: gravity_load, new_gravity
@@ -25,20 +26,16 @@ module rotorcable_loads_gravity
 
 contains
 
-  !> Build from the flat parameters (g_x, g_y, g_z).
-  subroutine new_gravity(slot, chain, ints, reals, error)
+  !> Build from its parameter block: g.
+  subroutine new_gravity(slot, chain, params, error)
     type(load_slot), intent(inout) :: slot    !< slot to fill
     type(chain_type), intent(in) :: chain     !< chain description
-    integer, intent(in) :: ints(:)            !< (none)
-    real(dp), intent(in) :: reals(:)          !< g [m/s^2]
+    type(parameter_block), intent(in) :: params  !< g(3) [m/s^2]
     type(error_type), intent(inout) :: error  !< status
     type(gravity_load) :: load
-    if (size(reals) /= 3) then
-      call fatal_error(error, 'gravity needs 3 components')
-      return
-    end if
+    call get_reals(params, 'g', load%g, error)
+    if (error%code /= 0) return
     load%label = 'gravity'
-    load%g = reals
     allocate (slot%term, source=load)
   end subroutine new_gravity
 

@@ -1,7 +1,7 @@
 !> Linear torsion springs and viscous dampers on every joint coordinate, eq. 4.78-4.86.  A
 !> torque pair along a joint axis does power only on that axis's own rate, so the spring
 !> moments project onto the coordinates diagonally: Q = -c (q - q_rest) - d qdot; potential
-!> sum c (q - q_rest)^2 / 2.  Parameters: reals = (c(1:nq), d(1:nq), q_rest(1:nq)).
+!> sum c (q - q_rest)^2 / 2.  Parameters: stiffness, damping, rest (nq each).
 !> Updatable: 'springs.stiffness' c(1:nq), 'springs.damping' d(1:nq).
 module rotorcable_loads_joint_springs
   use rotorcable_kinds, only: dp
@@ -11,6 +11,7 @@ module rotorcable_loads_joint_springs
   use rotorcable_kinematics_tangent, only: chain_tangent
   use rotorcable_frame, only: frame_state
   use rotorcable_loads_type, only: load_term, load_slot
+  use rotorcable_parameter_block, only: parameter_block, get_reals
   implicit none
   private
   public :: joint_springs_load, new_joint_springs
@@ -32,24 +33,21 @@ module rotorcable_loads_joint_springs
 
 contains
 
-  !> Build from the flat parameters.
-  subroutine new_joint_springs(slot, chain, ints, reals, error)
+  !> Build from its parameter block: stiffness, damping, rest, one value per coordinate.
+  subroutine new_joint_springs(slot, chain, params, error)
     type(load_slot), intent(inout) :: slot    !< slot to fill
     type(chain_type), intent(in) :: chain     !< chain description
-    integer, intent(in) :: ints(:)            !< (none)
-    real(dp), intent(in) :: reals(:)          !< c, d, q_rest per coordinate
+    type(parameter_block), intent(in) :: params  !< c [Nm/rad], d [Nms/rad], q_rest [rad]
     type(error_type), intent(inout) :: error  !< status
     type(joint_springs_load) :: load
     integer :: nq
     nq = chain%n_coords
-    if (size(reals) /= 3*nq) then
-      call fatal_error(error, 'joint springs need stiffness, damping and rest angle per coordinate')
-      return
-    end if
+    allocate (load%stiffness(nq), load%damping(nq), load%rest(nq))
+    call get_reals(params, 'stiffness', load%stiffness, error)
+    call get_reals(params, 'damping', load%damping, error)
+    call get_reals(params, 'rest', load%rest, error)
+    if (error%code /= 0) return
     load%label = 'joint springs'
-    load%stiffness = reals(1:nq)
-    load%damping = reals(nq + 1:2*nq)
-    load%rest = reals(2*nq + 1:3*nq)
     allocate (slot%term, source=load)
   end subroutine new_joint_springs
 

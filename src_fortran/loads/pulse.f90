@@ -1,6 +1,6 @@
 !> A rectangular force pulse on one body's centre of mass, thesis section 5.4 (decay test):
 !> the force acts for t_start <= t < t_end; the integrator stops at both edges.
-!> Parameters: ints = (body); reals = (F_x, F_y, F_z [N], t_start, t_end [s]).
+!> Parameters: body (integer), force(3) [N], t_start, t_end [s].
 !> Updatable: 'loads.pulse' (1 on, 0 off).  A pulse switched off adds nothing and has no switch
 !> times, so the model is the one built without it (statics and modes of the steady loads).
 module rotorcable_loads_pulse
@@ -11,6 +11,7 @@ module rotorcable_loads_pulse
   use rotorcable_kinematics_tangent, only: chain_tangent
   use rotorcable_frame, only: frame_state
   use rotorcable_loads_type, only: load_term, load_slot
+  use rotorcable_parameter_block, only: parameter_block, get_real, get_reals, get_int
   implicit none
   private
   public :: pulse_load, new_pulse
@@ -33,31 +34,27 @@ module rotorcable_loads_pulse
 
 contains
 
-  !> Build from the flat parameters.
-  subroutine new_pulse(slot, chain, ints, reals, error)
+  !> Build from its parameter block: body, force, t_start, t_end.
+  subroutine new_pulse(slot, chain, params, error)
     type(load_slot), intent(inout) :: slot    !< slot to fill
     type(chain_type), intent(in) :: chain     !< chain description
-    integer, intent(in) :: ints(:)            !< body index
-    real(dp), intent(in) :: reals(:)          !< force [N], start, end [s]
+    type(parameter_block), intent(in) :: params  !< body, force(3) [N], t_start, t_end [s]
     type(error_type), intent(inout) :: error  !< status
     type(pulse_load) :: load
-    if (size(ints) /= 1 .or. size(reals) /= 5) then
-      call fatal_error(error, 'a pulse needs its body, 3 force components, start and end')
-      return
-    end if
-    if (ints(1) < 1 .or. ints(1) > chain%n_bodies) then
+    call get_int(params, 'body', load%body, error)
+    call get_reals(params, 'force', load%force, error)
+    call get_real(params, 't_start', load%t_start, error)
+    call get_real(params, 't_end', load%t_end, error)
+    if (error%code /= 0) return
+    if (load%body < 1 .or. load%body > chain%n_bodies) then
       call fatal_error(error, 'the pulse body is not a body of the chain')
       return
     end if
-    if (.not. (reals(5) > reals(4))) then
+    if (.not. (load%t_end > load%t_start)) then
       call fatal_error(error, 'the pulse must end after it starts')
       return
     end if
     load%label = 'pulse'
-    load%body = ints(1)
-    load%force = reals(1:3)
-    load%t_start = reals(4)
-    load%t_end = reals(5)
     allocate (slot%term, source=load)
   end subroutine new_pulse
 

@@ -18,7 +18,7 @@
 !>
 !>   tau_j = -A^T J_r^-T(phi) K phi - A^T D A qdot,    D = damping_time K (dissipation w^T D w).
 !>
-!> Parameters: reals = (K(3, j), D(3, j) for every free joint j, in joint order).
+!> Parameters: stiffness K(3, j) and damping D(3, j) of every free joint j, in joint order.
 !> Updatable: 'springs.stiffness' (K(3, j) for every free joint j, in joint order: one value per
 !> coordinate, as the joint springs take them) and 'springs.damping' (D likewise).
 module rotorcable_loads_rotation_springs
@@ -31,6 +31,7 @@ module rotorcable_loads_rotation_springs
   use rotorcable_frame, only: frame_state
   use rotorcable_rotations, only: skew, vee, identity3, cross
   use rotorcable_loads_type, only: load_term, load_slot
+  use rotorcable_parameter_block, only: parameter_block, get_reals
   implicit none
   private
   public :: rotation_springs_load, new_rotation_springs, joint_rotation_vector, right_jacobian_inverse
@@ -52,20 +53,24 @@ module rotorcable_loads_rotation_springs
 
 contains
 
-  !> Build from the flat parameters; every free joint must be an xyz joint.
-  subroutine new_rotation_springs(slot, chain, ints, reals, error)
+  !> Build from its parameter block (stiffness, damping); every free joint must be an xyz joint.
+  subroutine new_rotation_springs(slot, chain, params, error)
     type(load_slot), intent(inout) :: slot    !< slot to fill
     type(chain_type), intent(in) :: chain     !< chain description
-    integer, intent(in) :: ints(:)            !< (none)
-    real(dp), intent(in) :: reals(:)          !< K, D per free joint
+    type(parameter_block), intent(in) :: params  !< stiffness, damping: 3 per free joint
     type(error_type), intent(inout) :: error  !< status
     type(rotation_springs_load) :: load
+    real(dp), allocatable :: stiffness(:), damping(:)
     integer :: j, k, n_free
     n_free = count(.not. chain%locked)
-    if (size(reals) /= 6*n_free .or. any(chain%joint_kind /= JOINT_XYZ .and. .not. chain%locked)) then
-      call fatal_error(error, 'rotation-vector springs need xyz joints and 6 constants per free joint')
+    if (any(chain%joint_kind /= JOINT_XYZ .and. .not. chain%locked)) then
+      call fatal_error(error, 'rotation-vector springs need xyz joints')
       return
     end if
+    allocate (stiffness(3*n_free), damping(3*n_free))
+    call get_reals(params, 'stiffness', stiffness, error)
+    call get_reals(params, 'damping', damping, error)
+    if (error%code /= 0) return
     load%label = 'rotation-vector springs'
     allocate (load%stiffness(3, chain%n_bodies), load%damping(3, chain%n_bodies))
     load%stiffness = 0.0_dp
@@ -74,9 +79,9 @@ contains
     k = 0
     do j = 1, chain%n_bodies
       if (chain%locked(j)) cycle
-      load%stiffness(:, j) = reals(6*k + 1:6*k + 3)
-      load%damping(:, j) = reals(6*k + 4:6*k + 6)
       k = k + 1
+      load%stiffness(:, j) = stiffness(3*k - 2:3*k)
+      load%damping(:, j) = damping(3*k - 2:3*k)
     end do
     allocate (slot%term, source=load)
   end subroutine new_rotation_springs

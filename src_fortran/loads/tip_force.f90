@@ -1,15 +1,16 @@
 !> A constant force at the free tip P_{n+1} of an open chain (the cantilever check): applied
 !> to the last body as the force at its CM plus the moment (P_{n+1} - C_n) x F; potential
-!> -F . P_{n+1}.  Parameters: reals = (F_x, F_y, F_z) [N].
+!> -F . P_{n+1}.  Parameters: force(3) [N].
 module rotorcable_loads_tip_force
   use rotorcable_kinds, only: dp
-  use rotorcable_errors, only: error_type, fatal_error
+  use rotorcable_errors, only: error_type
   use rotorcable_chain, only: chain_type
   use rotorcable_kinematics, only: chain_state
   use rotorcable_kinematics_tangent, only: chain_tangent
   use rotorcable_frame, only: frame_state
   use rotorcable_rotations, only: cross
   use rotorcable_loads_type, only: load_term, load_slot
+  use rotorcable_parameter_block, only: parameter_block, get_reals
   implicit none
   private
   public :: tip_force_load, new_tip_force
@@ -26,20 +27,16 @@ module rotorcable_loads_tip_force
 
 contains
 
-  !> Build from the flat parameters.
-  subroutine new_tip_force(slot, chain, ints, reals, error)
+  !> Build from its parameter block: force.
+  subroutine new_tip_force(slot, chain, params, error)
     type(load_slot), intent(inout) :: slot    !< slot to fill
     type(chain_type), intent(in) :: chain     !< chain description
-    integer, intent(in) :: ints(:)            !< (none)
-    real(dp), intent(in) :: reals(:)          !< force [N]
+    type(parameter_block), intent(in) :: params  !< force(3) [N]
     type(error_type), intent(inout) :: error  !< status
     type(tip_force_load) :: load
-    if (size(reals) /= 3) then
-      call fatal_error(error, 'a tip force needs 3 components')
-      return
-    end if
+    call get_reals(params, 'force', load%force, error)
+    if (error%code /= 0) return
     load%label = 'tip force'
-    load%force = reals
     allocate (slot%term, source=load)
   end subroutine new_tip_force
 

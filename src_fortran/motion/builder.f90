@@ -12,9 +12,10 @@ module rotorcable_motion_builder
   use rotorcable_motion_angle_function, only: set_fourier_angle, set_table_angle, set_rotor_angle, &
                                               ANGLE_CONSTANT, ANGLE_FOURIER, ANGLE_TABLE, ANGLE_ROTOR
   use rotorcable_motion_rigid_motion, only: rigid_motion
+  use rotorcable_parameter_block, only: parameter_block, parameter_size, get_ints, get_reals
   implicit none
   private
-  public :: motion_from_flat
+  public :: motion_from_flat, motion_from_block
 
 contains
 
@@ -70,5 +71,23 @@ contains
       ir = ir + np
     end do
   end subroutine motion_from_flat
+
+  !> The motion a support's parameter block describes in its parameters motion_ints and
+  !> motion_reals (the layout above; both empty: no hinges).
+  subroutine motion_from_block(params, motion, error)
+    type(parameter_block), intent(in) :: params  !< the support's parameters
+    type(rigid_motion), intent(out) :: motion !< motion
+    type(error_type), intent(inout) :: error  !< status
+    integer, allocatable :: ints(:)
+    real(dp), allocatable :: reals(:)
+    allocate (ints(max(parameter_size(params, 'motion_ints'), 0)), reals(max(parameter_size(params, 'motion_reals'), 0)))
+    call get_ints(params, 'motion_ints', ints, error)
+    call get_reals(params, 'motion_reals', reals, error)
+    if (error%code /= 0) then
+      allocate (motion%hinges(0))
+      return
+    end if
+    call motion_from_flat(ints, reals, motion, error)
+  end subroutine motion_from_block
 
 end module rotorcable_motion_builder

@@ -14,9 +14,11 @@
 !> (rotorcable_frame) and Tdot = (tr(Edot) I - Edot)/2.  The multipliers are the clamp wrench on
 !> the chain: F_B = lambda_pos, M_B = T^T lambda_rot (eq. 3.50: G^T lambda is the generalized
 !> force of that wrench).
+!> Parameters: position(3) [m], rotation(9) (R_B0 column by column), motion_ints, motion_reals
+!> (rotorcable_motion_builder).
 module rotorcable_supports_clamp
   use rotorcable_kinds, only: dp
-  use rotorcable_errors, only: error_type, fatal_error
+  use rotorcable_errors, only: error_type
   use rotorcable_chain, only: chain_type
   use rotorcable_kinematics, only: chain_state
   use rotorcable_kinematics_tangent, only: chain_tangent
@@ -24,7 +26,11 @@ module rotorcable_supports_clamp
   use rotorcable_rotations, only: cross, skew, vee, identity3, rotation_log, rotation_exp
   use rotorcable_motion_rotor, only: rotor_state
   use rotorcable_motion_rigid_motion, only: rigid_motion, motion_state, motion_at, point_motion, motion_free
+  use rotorcable_motion_builder, only: motion_from_block
+  use rotorcable_parameter_block, only: parameter_block, get_reals
   use rotorcable_supports_type, only: support_type
+  use rotorcable_supports_tip_point, only: tip_jacobian, add_tip_wrench, add_tip_wrench_tangent, tip_velocity, &
+                                           tip_acceleration, tip_velocity_tangent
   implicit none
   private
   public :: clamp_support, new_clamp
@@ -60,31 +66,38 @@ module rotorcable_supports_clamp
     procedure :: closure
     procedure :: closure_rows
     procedure :: blend_target
+    procedure :: reach_target
+    procedure :: motion_twist
     procedure :: free
   end type clamp_support
 
 contains
 
-  !> A clamp at the reference pose (position, rotation), moved by `motion` if it has hinges.
-  subroutine new_clamp(clamp, position, rotation, motion)
-    type(clamp_support), intent(out) :: clamp !< clamp to build
-    real(dp), intent(in) :: position(3)       !< p_B0 [m]
-    real(dp), intent(in) :: rotation(3, 3)    !< R_B0
-    type(rigid_motion), intent(in), optional :: motion  !< prescribed motion
-    clamp%position_ref = position
-    clamp%rotation_ref = rotation
-    clamp%position = position
-    clamp%rotation = rotation
-    clamp%true_position = position
-    clamp%true_rotation = rotation
-    if (present(motion)) then
-      if (allocated(motion%hinges)) then
-        if (size(motion%hinges) > 0) then
-          clamp%moving = .true.
-          clamp%motion = motion
-        end if
-      end if
+  !> A clamp at the reference pose (position, rotation), moved by its motion if it has hinges.
+  subroutine new_clamp(support, chain, params, error)
+    class(support_type), allocatable, intent(out) :: support  !< the support built
+    type(chain_type), intent(in) :: chain     !< chain description
+    type(parameter_block), intent(in) :: params  !< position, rotation, motion_ints, motion_reals
+    type(error_type), intent(inout) :: error  !< status
+    type(clamp_support) :: clamp
+    real(dp) :: rotation(9)
+    type(rigid_motion) :: motion
+    call get_reals(params, 'position', clamp%position_ref, error)
+    call get_reals(params, 'rotation', rotation, error)
+    call motion_from_block(params, motion, error)
+    if (error%code /= 0) return
+    clamp%label = 'clamp B'
+    clamp%position_key = 'clamp_b.position'
+    clamp%rotation_ref = reshape(rotation, [3, 3])
+    clamp%position = clamp%position_ref
+    clamp%rotation = clamp%rotation_ref
+    clamp%true_position = clamp%position_ref
+    clamp%true_rotation = clamp%rotation_ref
+    if (size(motion%hinges) > 0) then
+      clamp%moving = .true.
+      clamp%motion = motion
     end if
+    allocate (support, source=clamp)
   end subroutine new_clamp
 
   pure integer function rows(self)
@@ -140,40 +153,26 @@ contains
     type(chain_type), intent(in) :: chain
     type(chain_state), intent(in) :: st
     real(dp), intent(out) :: g_jac(:, :)
-    real(dp) :: t(3, 3), tip(3), arm(3)
-    integer :: j, kk, k
+    real(dp) :: t(3, 3)
+    integer :: j, kk
+    call tip_jacobian(chain, st, g_jac)
     t = rate_map(orientation_error(self, st))
-    tip = st%joint_point(:, chain%n_bodies + 1)
     do j = 1, chain%n_bodies
-      arm = tip - st%joint_point(:, j)        ! a local: no heap temporary for cross
       do kk = 1, chain%n_joint_coords(j)
-        k = chain%first_coord(j) + kk - 1
-        g_jac(1:3, k) = cross(st%axes(:, kk, j), arm)
-        g_jac(4:6, k) = matmul(t, st%axes(:, kk, j))
+        g_jac(4:6, chain%first_coord(j) + kk - 1) = matmul(t, st%axes(:, kk, j))
       end do
     end do
   end subroutine jacobian
 
-  !> (G^T mu)_k = a_k . ((tip - P_j) x mu_t + T^T mu_r): one 3-vector per body instead of six
-  !> numbers per coordinate.
+  !> (G^T mu)_k = a_k . ((tip - P_j) x mu_t + T^T mu_r): the generalized force of the wrench
+  !> (mu_t at the tip, T^T mu_r).
   pure subroutine add_jacobian_transpose_times(self, chain, st, mu, r)
     class(clamp_support), intent(in) :: self
     type(chain_type), intent(in) :: chain
     type(chain_state), intent(in) :: st
     real(dp), intent(in) :: mu(:)
     real(dp), intent(inout) :: r(:)
-    real(dp) :: t_mu(3), tip(3), arm(3), w(3)
-    integer :: j, kk
-    t_mu = matmul(mu(4:6), rate_map(orientation_error(self, st)))
-    tip = st%joint_point(:, chain%n_bodies + 1)
-    do j = 1, chain%n_bodies
-      if (chain%n_joint_coords(j) == 0) cycle
-      arm = tip - st%joint_point(:, j)
-      w = cross(arm, mu(1:3)) + t_mu
-      do kk = 1, chain%n_joint_coords(j)
-        r(chain%first_coord(j) + kk - 1) = r(chain%first_coord(j) + kk - 1) + dot_product(st%axes(:, kk, j), w)
-      end do
-    end do
+    call add_tip_wrench(chain, st, mu(1:3), matmul(mu(4:6), rate_map(orientation_error(self, st))), r)
   end subroutine add_jacobian_transpose_times
 
   pure subroutine velocity_rows(self, chain, st, fs, out)
@@ -182,13 +181,12 @@ contains
     type(chain_state), intent(in) :: st
     type(frame_state), intent(in) :: fs
     real(dp), intent(out) :: out(:)
-    real(dp) :: tip(3), w_n(3), t(3, 3)
+    real(dp) :: w_n(3), t(3, 3)
     integer :: n
     n = chain%n_bodies
-    tip = st%joint_point(:, n + 1)
     t = rate_map(orientation_error(self, st))
     w_n = st%omega(:, n) - fs%omega
-    out(1:3) = relative_velocity(fs, tip, st%vel_joint(:, n + 1)) - self%lin_velocity
+    out(1:3) = tip_velocity(chain, st, fs, self%lin_velocity)
     out(4:6) = matmul(t, w_n) - matmul(self%omega, t)
   end subroutine velocity_rows
 
@@ -198,12 +196,10 @@ contains
     type(chain_state), intent(in) :: st
     type(frame_state), intent(in) :: fs
     real(dp), intent(out) :: out(:)
-    real(dp) :: tip(3), v_rel(3), w_n(3), al_n(3), e(3, 3), edot(3, 3), t(3, 3), tdot(3, 3)
+    real(dp) :: w_n(3), al_n(3), e(3, 3), edot(3, 3), t(3, 3), tdot(3, 3)
     integer :: n
     n = chain%n_bodies
-    tip = st%joint_point(:, n + 1)
-    v_rel = relative_velocity(fs, tip, st%vel_joint(:, n + 1))
-    out(1:3) = relative_acceleration(fs, tip, v_rel, st%acc_joint(:, n + 1)) - self%lin_acceleration
+    out(1:3) = tip_acceleration(chain, st, fs, self%lin_acceleration)
     w_n = st%omega(:, n) - fs%omega
     al_n = st%alpha(:, n) - fs%omega_dot - cross(fs%omega, w_n)
     e = orientation_error(self, st)
@@ -257,15 +253,15 @@ contains
     real(dp) :: t(3, 3), dt(3, 3), w_n(3)
     integer :: n
     n = chain%n_bodies
-    dout(1:3) = dst%dvel_joint(:, n + 1)
-    if (fs%rotating) dout(1:3) = dout(1:3) - cross(fs%omega, dst%djoint_point(:, n + 1))
+    dout(1:3) = tip_velocity_tangent(chain, dst, fs)
     t = rate_map(orientation_error(self, st))
     dt = rate_map(orientation_error_tangent(self, st, dst))
     w_n = st%omega(:, n) - fs%omega
     dout(4:6) = matmul(dt, w_n) + matmul(t, dst%domega(:, n)) - matmul(self%omega, dt)
   end subroutine velocity_tangent
 
-  !> d(G^T mu)_k = da_k . w_j + a_k . dw_j,  w_j = (tip - P_j) x mu_t + T^T mu_r.
+  !> d(G^T mu): the tip wrench's tangent with the moment T^T mu_r and its change
+  !> dT^T mu_r + T^T dmu_r.
   pure subroutine add_jacobian_transpose_tangent(self, chain, st, dst, mu, dmu, dr)
     class(clamp_support), intent(in) :: self
     type(chain_type), intent(in) :: chain
@@ -273,27 +269,11 @@ contains
     type(chain_tangent), intent(in) :: dst
     real(dp), intent(in) :: mu(:), dmu(:)
     real(dp), intent(inout) :: dr(:)
-    real(dp) :: t_mu(3), dt_mu(3), tip(3), dtip(3), arm(3), darm(3), w(3), dw(3), mu_t(3), dmu_t(3)
-    integer :: j, kk, k, n
-    n = chain%n_bodies
+    real(dp) :: t_mu(3), dt_mu(3)
     t_mu = matmul(mu(4:6), rate_map(orientation_error(self, st)))
     dt_mu = matmul(mu(4:6), rate_map(orientation_error_tangent(self, st, dst))) &
             + matmul(dmu(4:6), rate_map(orientation_error(self, st)))
-    tip = st%joint_point(:, n + 1)
-    dtip = dst%djoint_point(:, n + 1)
-    mu_t = mu(1:3)
-    dmu_t = dmu(1:3)
-    do j = 1, n
-      if (chain%n_joint_coords(j) == 0) cycle
-      arm = tip - st%joint_point(:, j)
-      darm = dtip - dst%djoint_point(:, j)
-      w = cross(arm, mu_t) + t_mu
-      dw = cross(darm, mu_t) + cross(arm, dmu_t) + dt_mu
-      do kk = 1, chain%n_joint_coords(j)
-        k = chain%first_coord(j) + kk - 1
-        dr(k) = dr(k) + dot_product(dst%daxes(:, kk, j), w) + dot_product(st%axes(:, kk, j), dw)
-      end do
-    end do
+    call add_tip_wrench_tangent(chain, st, dst, mu(1:3), dmu(1:3), t_mu, dt_mu, dr)
   end subroutine add_jacobian_transpose_tangent
 
   !> dF_B = dlambda_pos, dM_B = dT^T lambda_rot + T^T dlambda_rot.
@@ -318,19 +298,16 @@ contains
     type(chain_state), intent(in) :: st
     real(dp), intent(out) :: r(:)
     real(dp), intent(out) :: r_jac(:, :)
-    real(dp) :: e(3, 3), de(3, 3), tip(3), arm(3)
-    integer :: j, kk, k
+    real(dp) :: e(3, 3), de(3, 3)
+    integer :: j, kk
     e = orientation_error(self, st)
-    tip = st%joint_point(:, chain%n_bodies + 1)
-    r(1:3) = tip - self%position
+    r(1:3) = st%joint_point(:, chain%n_bodies + 1) - self%position
     r(4:12) = reshape(e - identity3(), [9])
+    call tip_jacobian(chain, st, r_jac)
     do j = 1, chain%n_bodies
-      arm = tip - st%joint_point(:, j)
       do kk = 1, chain%n_joint_coords(j)
-        k = chain%first_coord(j) + kk - 1
-        r_jac(1:3, k) = cross(st%axes(:, kk, j), arm)
         de = matmul(skew(st%axes(:, kk, j)), e)
-        r_jac(4:12, k) = reshape(de, [9])
+        r_jac(4:12, chain%first_coord(j) + kk - 1) = reshape(de, [9])
       end do
     end do
   end subroutine closure
@@ -353,6 +330,25 @@ contains
       self%rotation = self%true_rotation
     end if
   end subroutine blend_target
+
+  !> The free part ends where the held last body starts: p_B - L_n R_B e_z.
+  pure subroutine reach_target(self, chain, point, held, found)
+    class(clamp_support), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    real(dp), intent(out) :: point(3)
+    integer, intent(out) :: held
+    logical, intent(out) :: found
+    point = self%position - chain%length(chain%n_bodies)*self%rotation(:, 3)
+    held = 1
+    found = .true.
+  end subroutine reach_target
+
+  pure subroutine motion_twist(self, velocity, omega)
+    class(clamp_support), intent(in) :: self
+    real(dp), intent(out) :: velocity(3), omega(3)
+    velocity = self%lin_velocity
+    omega = self%omega
+  end subroutine motion_twist
 
   subroutine free(self)
     class(clamp_support), intent(inout) :: self

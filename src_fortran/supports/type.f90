@@ -19,6 +19,8 @@ module rotorcable_supports_type
   public :: support_type
 
   type, abstract :: support_type
+    character(len=32) :: label = ''           !< name in messages ('clamp B')
+    character(len=64) :: position_key = ''    !< deck key of its position, for messages
   contains
     !> Number of constraint rows.
     procedure(rows_i), deferred :: rows
@@ -49,6 +51,13 @@ module rotorcable_supports_type
     procedure(rows_i), deferred :: closure_rows
     !> Move the target pose part of the way from (p0, R0) towards the true one (continuation).
     procedure(blend_i), deferred :: blend_target
+    !> The point the free part of the chain must reach and how many bodies at the chain's end
+    !> the support holds rigidly (they are not part of that free part); found = .false.: no
+    !> reach check (rotorcable_projection, clamp_reach).
+    procedure :: reach_target => no_reach_target
+    !> Velocity of the support point and rotation rate of the support, relative to the model
+    !> frame, at the last update (with the reactions, the power the support puts in).
+    procedure :: motion_twist => at_rest
     !> Release C memory held by a prescribed motion.
     procedure :: free => no_free
   end type support_type
@@ -166,6 +175,27 @@ module rotorcable_supports_type
   end interface
 
 contains
+
+  !> No reach check by default.
+  pure subroutine no_reach_target(self, chain, point, held, found)
+    class(support_type), intent(in) :: self   !< support
+    type(chain_type), intent(in) :: chain     !< chain description
+    real(dp), intent(out) :: point(3)         !< point the free part must reach [m]
+    integer, intent(out) :: held              !< bodies held rigidly at the end
+    logical, intent(out) :: found             !< the support has a reach check
+    point = 0.0_dp
+    held = 0
+    found = .false.
+  end subroutine no_reach_target
+
+  !> A support that does not move.
+  pure subroutine at_rest(self, velocity, omega)
+    class(support_type), intent(in) :: self   !< support
+    real(dp), intent(out) :: velocity(3)      !< support point velocity [m/s]
+    real(dp), intent(out) :: omega(3)         !< rotation rate [rad/s]
+    velocity = 0.0_dp
+    omega = 0.0_dp
+  end subroutine at_rest
 
   !> Release C memory (table splines); nothing by default.
   subroutine no_free(self)

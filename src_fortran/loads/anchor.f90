@@ -1,0 +1,105 @@
+!> A linear translational spring from one joint point P_j of the chain to an anchor point a fixed
+!> in the model frame (docs/model.md, "Anchor spring"): F = -k (P_j - a) at P_j, on body b =
+!> min(j, n) (P_j starts body j; P_{n+1}, the tip, ends body n), applied as that force at the CM
+!> C_b plus the moment (P_j - C_b) x F; potential k |P_j - a|^2 / 2.  A spring of zero rest
+!> length: the anchor is where it pulls to.
+!> Parameters: joint (integer, 1 ... n+1), point(3) [m], stiffness [N/m].
+module rotorcable_loads_anchor
+  use rotorcable_kinds, only: dp
+  use rotorcable_errors, only: error_type, fatal_error
+  use rotorcable_chain, only: chain_type
+  use rotorcable_kinematics, only: chain_state
+  use rotorcable_kinematics_tangent, only: chain_tangent
+  use rotorcable_frame, only: frame_state
+  use rotorcable_rotations, only: cross
+  use rotorcable_loads_type, only: load_term, load_slot
+  use rotorcable_parameter_block, only: parameter_block, get_real, get_reals, get_int
+  implicit none
+  private
+  public :: anchor_load, new_anchor
+
+  !> Spring from joint point P_j to the anchor point.
+  type, extends(load_term) :: anchor_load
+    integer :: joint = 0                      !< j: the spring's end on the chain is P_j
+    integer :: body = 0                       !< b = min(j, n): the body P_j is a point of
+    real(dp) :: point(3) = 0.0_dp             !< anchor point a, model frame [m]
+    real(dp) :: stiffness = 0.0_dp            !< k [N/m]
+  contains
+    procedure :: add_forces
+    procedure :: add_force_tangent
+    procedure :: potential
+    procedure :: has_potential
+  end type anchor_load
+
+contains
+
+  !> Build from its parameter block: joint, point, stiffness.
+  subroutine new_anchor(slot, chain, params, error)
+    type(load_slot), intent(inout) :: slot    !< slot to fill
+    type(chain_type), intent(in) :: chain     !< chain description
+    type(parameter_block), intent(in) :: params  !< joint, point(3) [m], stiffness [N/m]
+    type(error_type), intent(inout) :: error  !< status
+    type(anchor_load) :: load
+    call get_int(params, 'joint', load%joint, error)
+    call get_reals(params, 'point', load%point, error)
+    call get_real(params, 'stiffness', load%stiffness, error)
+    if (error%code /= 0) return
+    if (load%joint < 1 .or. load%joint > chain%n_bodies + 1) then
+      ! Named by its parameter: pydriver.core turns that into the deck key that fed it.
+      call fatal_error(error, 'the anchored joint must be 1 ... n_bodies + 1 (the tip)', key='joint')
+      return
+    end if
+    load%label = 'anchor spring'
+    load%body = min(load%joint, chain%n_bodies)
+    allocate (slot%term, source=load)
+  end subroutine new_anchor
+
+  pure subroutine add_forces(self, chain, st, fs, t, q, v, force, moment, tau)
+    class(anchor_load), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    type(frame_state), intent(in) :: fs
+    real(dp), intent(in) :: t, q(:), v(:)
+    real(dp), intent(inout) :: force(:, :), moment(:, :), tau(:)
+    real(dp) :: f(3)
+    integer :: b
+    b = self%body
+    f = -self%stiffness*(st%joint_point(:, self%joint) - self%point)
+    force(:, b) = force(:, b) + f
+    moment(:, b) = moment(:, b) + cross(st%joint_point(:, self%joint) - st%cm(:, b), f)
+  end subroutine add_forces
+
+  !> dF = -k dP_j;  dM = (dP_j - dC_b) x F + (P_j - C_b) x dF.
+  pure subroutine add_force_tangent(self, chain, st, dst, fs, t, q, v, dq, dv, dforce, dmoment, dtau)
+    class(anchor_load), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    type(chain_tangent), intent(in) :: dst
+    type(frame_state), intent(in) :: fs
+    real(dp), intent(in) :: t, q(:), v(:), dq(:), dv(:)
+    real(dp), intent(inout) :: dforce(:, :), dmoment(:, :), dtau(:)
+    real(dp) :: f(3), df(3)
+    integer :: b, j
+    b = self%body
+    j = self%joint
+    f = -self%stiffness*(st%joint_point(:, j) - self%point)
+    df = -self%stiffness*dst%djoint_point(:, j)
+    dforce(:, b) = dforce(:, b) + df
+    dmoment(:, b) = dmoment(:, b) + cross(dst%djoint_point(:, j) - dst%dcm(:, b), f) &
+                    + cross(st%joint_point(:, j) - st%cm(:, b), df)
+  end subroutine add_force_tangent
+
+  pure real(dp) function potential(self, chain, st, q) result(e)
+    class(anchor_load), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    real(dp), intent(in) :: q(:)
+    e = 0.5_dp*self%stiffness*sum((st%joint_point(:, self%joint) - self%point)**2)
+  end function potential
+
+  pure logical function has_potential(self)
+    class(anchor_load), intent(in) :: self
+    has_potential = .true.
+  end function has_potential
+
+end module rotorcable_loads_anchor

@@ -1,0 +1,125 @@
+"""The component registry (issue 23 item 1): every load declares its parameters once, in
+pydriver/components.py, in the deck schema's terms; the core reads them by name from a keyed
+parameter block (src_fortran/parameter_block.f90) and refuses a missing name or a wrong size
+through the error channel instead of reading a flat array by position."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+from conftest import ROOT
+from pydriver.components import LOADS, SHAPES, SUPPORTS
+from pydriver.core import CoreModel, _parameter_arrays
+from pydriver.errors import RunError
+from pydriver.schema import lookup
+
+
+def three_bodies() -> CoreModel:
+    core = CoreModel("blocks", [0.1] * 3, [0.01] * 3, [0.2] * 3, "zy", [False] * 3, np.zeros((2, 3)))
+    return core
+
+
+def test_parameters_travel_by_name():
+    names_r, sizes_r, reals, names_i, sizes_i, ints = _parameter_arrays(
+        {"air_density": 1.2, "stream": [1.0, 2.0, 3.0], "body": np.int32(2), "cd": [0.5, 0.6]})
+    assert names_r.split() == ["air_density", "stream", "cd"] and list(sizes_r) == [1, 3, 2]
+    assert list(reals) == [1.2, 1.0, 2.0, 3.0, 0.5, 0.6]
+    assert names_i.split() == ["body"] and list(sizes_i) == [1] and list(ints) == [2]
+
+
+def test_a_missing_parameter_is_an_error_naming_load_and_name():
+    core = three_bodies()
+    with pytest.raises(RunError, match=r"drag: no parameter 'cd'"):
+        core.add_load("drag", {"air_density": 1.225, "stream": np.zeros(3)})
+
+
+def test_a_parameter_of_the_wrong_size_is_an_error_naming_the_sizes():
+    core = three_bodies()
+    with pytest.raises(RunError, match=r"gravity: parameter 'g' has 2 values, expected 3"):
+        core.add_load("gravity", {"g": [0.0, -9.81]})
+    with pytest.raises(RunError, match=r"drag: parameter 'cd' has 2 values, expected 3"):
+        core.add_load("drag", {"air_density": 1.225, "stream": np.zeros(3), "cd": [1.0, 1.0]})
+    with pytest.raises(RunError, match=r"pulse: parameter 'body' has 0 values, expected 1"):
+        core.add_load("pulse", {"body": np.zeros(0, np.int32), "force": np.ones(3), "t_start": 0.0, "t_end": 1.0})
+
+
+def test_an_unknown_load_kind_is_an_error():
+    with pytest.raises(RunError, match="unknown load kind 'magnet'"):
+        three_bodies().add_load("magnet", {})
+
+
+def test_an_unknown_support_kind_is_an_error():
+    with pytest.raises(RunError, match="unknown support kind 'hook'"):
+        three_bodies().add_support("hook", {})
+
+
+def test_a_support_without_a_declared_parameter_is_an_error_naming_it():
+    motion = {"motion_ints": np.zeros(0, np.int32), "motion_reals": np.zeros(0)}
+    with pytest.raises(RunError, match=r"clamp: no parameter 'rotation'"):
+        three_bodies().add_support("clamp", {"position": np.zeros(3), **motion})
+    with pytest.raises(RunError, match=r"clamp: parameter 'rotation' has 4 values, expected 9"):
+        three_bodies().add_support("clamp", {"position": np.zeros(3), "rotation": np.eye(2), **motion})
+
+
+def test_the_chain_end_takes_one_support():
+    core = three_bodies()
+    clamp = {"position": [0.3, 0.0, 0.0], "rotation": np.eye(3).ravel(),
+             "motion_ints": np.zeros(0, np.int32), "motion_reals": np.zeros(0)}
+    core.add_support("clamp", clamp)
+    with pytest.raises(RunError, match="has a support already"):
+        core.add_support("clamp", clamp)
+
+
+def test_no_support_is_downcast_outside_its_own_file():
+    """What the model asks of support B is a procedure of support_type (reach_target,
+    motion_twist), not a `type is (clamp_support)` branch in projection or sampling."""
+    for path in sorted((ROOT / "src_fortran").rglob("*.f90")):
+        if path.parent.name != "supports":
+            assert not re.search(r"type is \(\w+_support\)", path.read_text()), path.name
+
+
+@pytest.mark.parametrize("component", LOADS + SUPPORTS, ids=lambda c: c.kind)
+def test_every_declared_parameter_is_fed_by_schema_keys(component):
+    """Each parameter names the deck keys that feed it; they are keys of the schema, and one fed
+    straight by a single key has that key's unit and shape, so the schema (range, default, doc)
+    describes the value the core gets."""
+    assert component.parameters and component.doc
+    for p in component.parameters:
+        assert p.shape in SHAPES and p.keys, p.name
+        for dotted in p.keys:
+            assert lookup(*dotted.split(".")) is not None, f"{component.kind}.{p.name}: {dotted} is no deck key"
+        if p.derive is None:
+            assert len(p.keys) == 1
+            key = lookup(*p.keys[0].split("."))
+            assert (key.unit, key.shape) == (p.unit, p.shape), f"{component.kind}.{p.name}"
+            assert p.default == key.default
+
+
+def test_no_load_constructor_reads_a_flat_array_by_position():
+    """The constructors take a parameter block; none takes (ints, reals) any more."""
+    for path in sorted((ROOT / "src_fortran" / "loads").glob("*.f90")):
+        text = path.read_text()
+        assert not re.search(r"real\(dp\), intent\(in\) :: reals\(:\)", text), path.name
+        assert not re.search(r"\breals\(\d", text), path.name
+
+
+@pytest.mark.parametrize("component", LOADS + SUPPORTS, ids=lambda c: c.kind)
+def test_every_declared_kind_is_known_to_its_factory(component):
+    """The registry and the Fortran factories name the same kinds: an empty block reaches the
+    constructor, which refuses it (a missing parameter, or the rotation springs' joints of
+    this zy chain), instead of the factory's 'unknown ... kind'."""
+    core = three_bodies()
+    add = core.add_support if component in SUPPORTS else core.add_load
+    with pytest.raises(RunError) as exc:
+        add(component.kind, {})
+    assert "unknown" not in str(exc.value)
+    assert "no parameter" in str(exc.value) or component.kind == "rotation_springs"
+
+
+@pytest.mark.parametrize("component", SUPPORTS, ids=lambda c: c.kind)
+def test_every_support_group_has_an_active_key(component):
+    """support_of names '&group active' when two supports are switched on."""
+    assert lookup(component.group, "active") is not None and lookup(component.group, "active").type == "bool"
