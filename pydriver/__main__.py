@@ -22,14 +22,29 @@ def _exit_on_termination():
     """SIGTERM and SIGHUP end the command like Ctrl-C: as an exception, so that a run's
     temporary directory is removed on the way out (the default action ends the process at
     once and left 10 MB of partial time series behind, issue 20)."""
+    import os
     import signal
+    import threading
 
     def terminate(signum, frame):
         _TERMINATED.append(signum)
-        # An object half-built when the signal came (an HDF5 file being opened) complains in
-        # its __del__ ("Exception ignored in ..."): noise once the command is ending.
-        sys.unraisablehook = lambda unraisable: None
+        sys.unraisablehook = redeliver_or_quiet
         raise SystemExit(128 + signum)
+
+    def redeliver_or_quiet(unraisable):
+        # A signal that came while a finalizer ran (a weakref callback inside h5py) raised its
+        # SystemExit there, where Python drops it ("Exception ignored in ..."): the run went on
+        # to its end and the command exited 0 (about 1 in 10 SIGTERMs while an HDF5 time series
+        # is being set up).  Deliver it again, to be raised where the run sees it.  Other
+        # complaints of objects half-built when the signal came are noise once the command is
+        # ending.
+        # Raised again from here it would be dropped again (Python ignores an exception of the
+        # hook), so a timer thread sends the signal anew 10 ms later: it lands outside the
+        # finalizer, or it is delivered again.
+        if unraisable.exc_type is SystemExit and _TERMINATED:
+            timer = threading.Timer(0.01, os.kill, (os.getpid(), _TERMINATED[0]))
+            timer.daemon = True
+            timer.start()
 
     for sig in (signal.SIGTERM, getattr(signal, "SIGHUP", None)):
         if sig is not None:
