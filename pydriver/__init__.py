@@ -24,9 +24,9 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):
 
 from pydriver.errors import DeckError, OutputError, RunError
 from pydriver.model import Model
-from pydriver.result import Result
+from pydriver.run_result import Result
 from pydriver.run import deck_info, evaluate_model, run_deck, shape
-from pydriver.results import load_results
+from pydriver.stored_results import load_results
 from pydriver.scene import Scene, scene
 from pydriver.sweep import SweepError, run_sweep
 

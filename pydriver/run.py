@@ -9,7 +9,7 @@ import numpy as np
 from pydriver.analyses import run
 from pydriver.model import Model
 from pydriver.output import RunDirectory, write_files
-from pydriver.result import Result, require_finite
+from pydriver.run_result import Result, require_finite
 
 
 def run_deck(path, out=None, plots: bool = False, report: bool = False, vtk: bool = False,

@@ -143,7 +143,7 @@ contains
     call articulated_factorise(self%model%chain, self%model%st, (self%damping + self%stiffness/cj)/cj, self%aba, info)
     self%factorised = info == 0
     if (info /= 0 .or. nc == 0) return
-    call self%model%tip%jacobian(self%model%chain, self%model%st, self%g)
+    call self%model%support_b%jacobian(self%model%chain, self%model%st, self%g)
     ! K^-1 B, B = [G^T, C G^T/cj], all 2 nc columns in one pass: K^-1 = (M + A)^-1/cj.
     do k = 1, nc
       self%b_cols(:, k) = self%g(k, :)/cj
@@ -205,7 +205,7 @@ contains
       jac(nq + k, nq + k) = jac(nq + k, nq + k) + self%damping(k)
     end do
     if (nc > 0) then
-      call self%model%tip%jacobian(self%model%chain, self%model%st, self%g)
+      call self%model%support_b%jacobian(self%model%chain, self%model%st, self%g)
       jac(1:nq, 2*nq + nc + 1:) = transpose(self%g)
       jac(nq + 1:2*nq, 2*nq + 1:2*nq + nc) = -transpose(self%g)
       jac(2*nq + 1:2*nq + nc, 1:nq) = self%g

@@ -10,7 +10,7 @@ module rotorcable_dae_integrator
                                          c_loc, c_funloc, c_f_pointer, c_null_ptr, c_associated, c_char
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error, sundials_flag_error
-  use rotorcable_model, only: model_type, solve_accelerations, switch_times
+  use rotorcable_model, only: model_type, support_b_key, solve_accelerations, switch_times
   use rotorcable_projection, only: project_positions, project_velocities, constraint_rank_margin, &
                                    rank_loss_message, RANK_TOL
   use rotorcable_ggl_residual, only: ida_user_data, ggl_residual, ggl_jacobian
@@ -88,13 +88,13 @@ contains
     if (project_positions(model, t, q) > 1.0e-10_dp) then
       call fatal_error(error, 'initial shape cannot be projected onto the clamp constraints '// &
                        '(|g| stays above 1e-10); the end clamp is out of reach of the start shape', &
-                       key='clamp_b.position')
+                       key=support_b_key(model))
       return
     end if
     if (model%nc > 0) then
       margin = constraint_rank_margin(model, t, q)
       if (margin < RANK_TOL) then
-        call fatal_error(error, rank_loss_message(model, t, q, margin), key='clamp_b.position')
+        call fatal_error(error, rank_loss_message(model, t, q, margin), key=support_b_key(model))
         return
       end if
     end if

@@ -157,9 +157,9 @@ contains
     call eom_residual_tangent(model, t, y(1:nq), y(nq + 1:2*nq), yd(nq + 1:2*nq), y(2*nq + 1:2*nq + nc), dy(1:nq), &
                               dy(nq + 1:2*nq), dyd(nq + 1:2*nq), dy(2*nq + 1:2*nq + nc), first, dr(nq + 1:2*nq))
     if (nc == 0) return
-    call model%tip%residual_tangent(model%chain, model%st, model%dst, dr(2*nq + 1:2*nq + nc))
-    call model%tip%velocity_tangent(model%chain, model%st, model%dst, model%fs, dr(2*nq + nc + 1:n))
-    call model%tip%add_jacobian_transpose_tangent(model%chain, model%st, model%dst, y(2*nq + nc + 1:n), &
+    call model%support_b%residual_tangent(model%chain, model%st, model%dst, dr(2*nq + 1:2*nq + nc))
+    call model%support_b%velocity_tangent(model%chain, model%st, model%dst, model%fs, dr(2*nq + nc + 1:n))
+    call model%support_b%add_jacobian_transpose_tangent(model%chain, model%st, model%dst, y(2*nq + nc + 1:n), &
                                                   dy(2*nq + nc + 1:n), dr(1:nq))
   end subroutine ggl_residual_tangent
 
@@ -256,9 +256,9 @@ contains
     real(dp), intent(in) :: mu(:)
     real(dp), intent(inout) :: r_q(:)
     real(dp), intent(out) :: r_g(:), r_gv(:)
-    call model%tip%residual(model%chain, model%st, r_g)
-    call model%tip%velocity(model%chain, model%st, model%fs, r_gv)
-    call model%tip%add_jacobian_transpose_times(model%chain, model%st, mu, r_q)
+    call model%support_b%residual(model%chain, model%st, r_g)
+    call model%support_b%velocity(model%chain, model%st, model%fs, r_gv)
+    call model%support_b%add_jacobian_transpose_times(model%chain, model%st, mu, r_q)
   end subroutine constraint_rows
 
 end module rotorcable_ggl_residual

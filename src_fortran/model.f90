@@ -22,6 +22,7 @@ module rotorcable_model
   use rotorcable_loads_type, only: load_slot
   implicit none
   private
+  public :: support_b_key
   public :: model_type, model_init, model_prepare, model_free, eom_residual, eom_residual_tangent, &
             generalized_forces, mass_matrix, &
             constraint_residual, constraint_jacobian, constraint_bias, constraint_velocity, &
@@ -32,7 +33,7 @@ module rotorcable_model
   type :: model_type
     type(chain_type) :: chain                 !< bodies and joints
     type(base_support) :: base                !< support A (locked base, may move)
-    class(support_type), allocatable :: tip   !< support B (none: a free end, no rows)
+    class(support_type), allocatable :: support_b  !< support B (none: a free end, no rows)
     type(load_slot), allocatable :: loads(:)  !< applied loads
     type(rotor_type) :: rotor                 !< rotor speed and centre
     type(frame_type) :: frame                 !< inertial or hub frame
@@ -63,13 +64,21 @@ module rotorcable_model
 
 contains
 
+  !> The deck key of support B's position, for messages about reaching it ('' without support B).
+  function support_b_key(model) result(key)
+    type(model_type), intent(in) :: model     !< the model
+    character(len=:), allocatable :: key
+    key = ''
+    if (allocated(model%support_b)) key = trim(model%support_b%position_key)
+  end function support_b_key
+
   !> Size the model's workspace once the chain, supports and loads are set (again after a
   !> support was added).
   subroutine model_init(model)
     type(model_type), intent(inout) :: model  !< model to finish
     model%nq = model%chain%n_coords
     model%nc = 0
-    if (allocated(model%tip)) model%nc = model%tip%rows()
+    if (allocated(model%support_b)) model%nc = model%support_b%rows()
     if (.not. allocated(model%loads)) allocate (model%loads(0))
     call state_allocate(model%chain, model%st)
     call tangent_allocate(model%chain, model%dst)
@@ -88,7 +97,7 @@ contains
     type(model_type), intent(inout) :: model  !< model
     call rotor_free(model%rotor)
     call base_free(model%base)
-    if (allocated(model%tip)) call model%tip%free()
+    if (allocated(model%support_b)) call model%support_b%free()
   end subroutine model_free
 
   !> Evaluate everything that depends on time alone (once per distinct t).
@@ -100,7 +109,7 @@ contains
     model%fs = frame_at(model%frame, model%rs)
     call base_pose(model%base, t, model%rs, model%fs, model%base_rot, model%base_pos, model%seed, model%base_vel, &
                    model%base_omega)
-    if (allocated(model%tip)) call model%tip%update(t, model%rs)
+    if (allocated(model%support_b)) call model%support_b%update(t, model%rs)
     model%prepared = .true.
     model%t_prepared = t
   end subroutine model_prepare
@@ -143,7 +152,7 @@ contains
     end do
     f_b = 0.0_dp
     m_b = 0.0_dp
-    if (model%nc > 0) call model%tip%wrench(model%chain, model%st, lambda(1:model%nc), f_b, m_b)
+    if (model%nc > 0) call model%support_b%wrench(model%chain, model%st, lambda(1:model%nc), f_b, m_b)
     if (model%fs%rotating .and. .not. model%fs%body_couples) then
       call inverse_dynamics(model%chain, model%st, model%force, model%moment, f_b, m_b, res, f_a, m_a, &
                             model%fs%omega, model%fs%omega_dot)
@@ -182,8 +191,8 @@ contains
     end do
     f_b = 0.0_dp; df_b = 0.0_dp; dm_b = 0.0_dp
     if (model%nc > 0) then
-      call model%tip%wrench(model%chain, model%st, lambda(1:model%nc), f_b, m_b)
-      call model%tip%wrench_tangent(model%chain, model%st, model%dst, lambda(1:model%nc), dlambda(1:model%nc), &
+      call model%support_b%wrench(model%chain, model%st, lambda(1:model%nc), f_b, m_b)
+      call model%support_b%wrench_tangent(model%chain, model%st, model%dst, lambda(1:model%nc), dlambda(1:model%nc), &
                                     df_b, dm_b)
     end if
     if (model%fs%rotating .and. .not. model%fs%body_couples) then
@@ -224,7 +233,7 @@ contains
     real(dp), intent(out) :: g(:)             !< (nc)
     if (model%nc == 0) return
     call positions_at(model, t, q)
-    call model%tip%residual(model%chain, model%st, g)
+    call model%support_b%residual(model%chain, model%st, g)
   end subroutine constraint_residual
 
   !> Constraint Jacobian G(q, t).
@@ -235,7 +244,7 @@ contains
     real(dp), intent(out) :: g_jac(:, :)      !< (nc,nq)
     if (model%nc == 0) return
     call positions_at(model, t, q)
-    call model%tip%jacobian(model%chain, model%st, g_jac)
+    call model%support_b%jacobian(model%chain, model%st, g_jac)
   end subroutine constraint_jacobian
 
   !> Velocity rows G(q,t) v + g_t.
@@ -247,7 +256,7 @@ contains
     if (model%nc == 0) return
     call positions_at(model, t, q)
     call chain_motion(model%chain, model%seed, v, model%zero_q, model%st)
-    call model%tip%velocity(model%chain, model%st, model%fs, gv)
+    call model%support_b%velocity(model%chain, model%st, model%fs, gv)
   end subroutine constraint_velocity
 
   !> Acceleration bias d^2 g/dt^2 at qdd = 0 (eq. 3.54, 4.103, plus the rheonomic terms).
@@ -259,7 +268,7 @@ contains
     if (model%nc == 0) return
     call positions_at(model, t, q)
     call chain_motion(model%chain, model%seed, v, model%zero_q, model%st)
-    call model%tip%bias(model%chain, model%st, model%fs, gb)
+    call model%support_b%bias(model%chain, model%st, model%fs, gb)
   end subroutine constraint_bias
 
   !> Accelerations and multipliers from the acceleration-level system, eq. 3.55:
@@ -285,17 +294,17 @@ contains
     a = 0.0_dp
     call mass_matrix_crba(model%chain, model%st, a(1:nq, 1:nq))
     if (nc > 0) then
-      call model%tip%jacobian(model%chain, model%st, a(nq + 1:, 1:nq))
+      call model%support_b%jacobian(model%chain, model%st, a(nq + 1:, 1:nq))
       a(1:nq, nq + 1:) = transpose(a(nq + 1:, 1:nq))
     end if
     call eom_residual(model, t, q, v, model%zero_q, model%zero_c, rhs(1:nq), frames_current=.true.)
     rhs(1:nq) = -rhs(1:nq)                    ! k(q, v, t)
     if (nc > 0) then
-      call model%tip%bias(model%chain, model%st, model%fs, rhs(nq + 1:))
+      call model%support_b%bias(model%chain, model%st, model%fs, rhs(nq + 1:))
       rhs(nq + 1:) = -rhs(nq + 1:)
       if (present(baumgarte_omega)) then
-        call model%tip%residual(model%chain, model%st, g)
-        call model%tip%velocity(model%chain, model%st, model%fs, gv)
+        call model%support_b%residual(model%chain, model%st, g)
+        call model%support_b%velocity(model%chain, model%st, model%fs, gv)
         rhs(nq + 1:) = rhs(nq + 1:) - baumgarte_omega**2*g - 2.0_dp*baumgarte_omega*gv
       end if
     end if

@@ -79,11 +79,11 @@ contains
     character(len=*), intent(in) :: kind      !< support kind
     type(parameter_block), intent(in) :: params  !< its parameters by name
     type(error_type), intent(inout) :: error  !< status
-    if (allocated(model%tip)) then
+    if (allocated(model%support_b)) then
       call fatal_error(error, 'the chain''s end has a support already')
       return
     end if
-    call new_support(kind, model%tip, model%chain, params, error)
+    call new_support(kind, model%support_b, model%chain, params, error)
   end subroutine build_support
 
   !> The rotor (speed profile, centre) and the frame of the equations.
@@ -135,13 +135,13 @@ contains
       if (n - held < 1 .or. span > reach*(1.0_dp + 1.0e-12_dp)) then
         write (buf, '(a, g0.6, a, g0.6, a)') ' is out of reach: the free part of the chain is ', &
           reach, ' m long but must span ', span, ' m'
-        call fatal_error(error, trim(model%tip%label)//trim(buf), key=trim(model%tip%position_key))
+        call fatal_error(error, trim(model%support_b%label)//trim(buf), key=trim(model%support_b%position_key))
       else if (span > reach*(1.0_dp - 1.0e-9_dp)) then
         ! At full reach the chain is a straight bar between the clamps: its axial force is not
         ! determined (the constraint Jacobian loses rank), whatever the solver would return.
         write (buf, '(a, g0.10, a, g0.10, a)') ' is at full reach (taut): the free part of the chain is ', &
           reach, ' m long and must span ', span, ' m; give it slack'
-        call fatal_error(error, trim(model%tip%label)//trim(buf), key=trim(model%tip%position_key))
+        call fatal_error(error, trim(model%support_b%label)//trim(buf), key=trim(model%support_b%position_key))
       end if
     end if
   end subroutine build_finish

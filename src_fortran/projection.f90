@@ -44,11 +44,11 @@ contains
       q = q_start
       do k = 1, n_steps(i)
         s = real(k, dp)/n_steps(i)
-        call model%tip%blend_target(s, p_0, r_0)
+        call model%support_b%blend_target(s, p_0, r_0)
         gm = close_chain(model, t, q)
         if (gm > 1.0e-8_dp) exit
       end do
-      call model%tip%blend_target(1.0_dp, p_0, r_0)
+      call model%support_b%blend_target(1.0_dp, p_0, r_0)
       if (k > n_steps(i)) then
         gmax = close_chain(model, t, q)
         if (gmax <= 1.0e-10_dp) return
@@ -73,7 +73,7 @@ contains
     real(dp) :: dq(model%nq), q_try(model%nq), mu, g(max(model%nc, 1)), l_s
     integer :: it, info, i, nq, m, k
     nq = model%nq
-    m = model%tip%closure_rows()
+    m = model%support_b%closure_rows()
     k = min(m, nq)
     allocate (r(m), r_try(m), r_jac(m, nq), w(m), u(m, k), s(k), vt(k, nq), c(k))
     ! Orientation rows weighted by a length so that metres and radians balance.
@@ -86,7 +86,7 @@ contains
     do it = 1, 300
       if (maxval(abs(r)) < 1.0e-14_dp) exit
       call positions_at(model, t, q)
-      call model%tip%closure(model%chain, model%st, r, r_jac)
+      call model%support_b%closure(model%chain, model%st, r, r_jac)
       r = w*r
       do i = 1, nq
         r_jac(:, i) = w*r_jac(:, i)
@@ -122,7 +122,7 @@ contains
       real(dp), intent(out) :: rr(:)
       real(dp) :: jj(m, nq)
       call positions_at(model, t, qq)
-      call model%tip%closure(model%chain, model%st, rr, jj)
+      call model%support_b%closure(model%chain, model%st, rr, jj)
       rr = w*rr
     end subroutine closure
   end function close_chain
@@ -209,10 +209,10 @@ contains
     has_clamp = .false.
     reach = 0.0_dp; span = 0.0_dp
     if (present(held)) held = 0
-    if (.not. allocated(model%tip)) return
+    if (.not. allocated(model%support_b)) return
     n = model%chain%n_bodies
     call positions_at(model, t, q)
-    call model%tip%reach_target(model%chain, target, n_held, has_clamp)
+    call model%support_b%reach_target(model%chain, target, n_held, has_clamp)
     if (.not. has_clamp) return
     if (present(held)) held = n_held
     start = model%st%joint_point(:, 1)

@@ -38,7 +38,7 @@ contains
     potential = stored_energy(model, q)
     g_max = 0.0_dp
     if (model%nc > 0) then
-      call model%tip%residual(model%chain, model%st, g(1:model%nc))
+      call model%support_b%residual(model%chain, model%st, g(1:model%nc))
       g_max = maxval(abs(g(1:min(3, model%nc))))
     end if
   end subroutine sample_state
@@ -116,8 +116,8 @@ contains
     twists = 0.0_dp
     twists(1:3) = model%base_vel
     twists(4:6) = model%base_omega
-    if (.not. allocated(model%tip)) return
-    call model%tip%motion_twist(twists(7:9), twists(10:12))
+    if (.not. allocated(model%support_b)) return
+    call model%support_b%motion_twist(twists(7:9), twists(10:12))
   end subroutine support_motion
 
 end module rotorcable_sampling

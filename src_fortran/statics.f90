@@ -3,7 +3,7 @@
 module rotorcable_statics
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error
-  use rotorcable_model, only: model_type, eom_residual, eom_residual_tangent, constraint_residual, &
+  use rotorcable_model, only: model_type, support_b_key, eom_residual, eom_residual_tangent, constraint_residual, &
                               constraint_jacobian, total_energy, &
                               all_conservative
   use rotorcable_projection, only: project_positions, constraint_rank_margin, rank_loss_message, RANK_TOL
@@ -42,10 +42,10 @@ contains
     real(dp) :: margin
     margin = constraint_rank_margin(model, t, q)
     if (margin < RANK_TOL) then
-      call fatal_error(error, rank_loss_message(model, t, q, margin), key='clamp_b.position')
+      call fatal_error(error, rank_loss_message(model, t, q, margin), key=support_b_key(model))
     else
       call fatal_error(error, 'the start shape cannot be closed onto clamp B (projection failed); '// &
-                       'start from a shape nearer the clamp', key='clamp_b.position')
+                       'start from a shape nearer the clamp', key=support_b_key(model))
     end if
   end subroutine closure_failure
 
@@ -304,7 +304,7 @@ contains
     end if
     if (nc > 0) then
       margin = constraint_rank_margin(model, t, q)
-      if (margin < RANK_TOL) call fatal_error(error, rank_loss_message(model, t, q, margin), key='clamp_b.position')
+      if (margin < RANK_TOL) call fatal_error(error, rank_loss_message(model, t, q, margin), key=support_b_key(model))
     end if
   end subroutine solve_static
 

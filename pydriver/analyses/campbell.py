@@ -24,7 +24,7 @@ from pydriver.analyses.common import base_summary
 from pydriver.analyses.statics import unforced, unforced_note
 from pydriver.errors import RunError
 from pydriver.motions import RPM
-from pydriver.result import Result
+from pydriver.run_result import Result
 from pydriver.richardson import richardson, richardson_two
 from pydriver.schema import lookup
 

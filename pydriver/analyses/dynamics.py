@@ -15,7 +15,7 @@ from pydriver.analyses.statics import equilibrium
 from pydriver.errors import DeckError, RunError
 from pydriver.output import CSV_MAX_VALUES, TimeseriesWriter
 from pydriver.progress import report
-from pydriver.result import Result
+from pydriver.run_result import Result
 
 #: Samples integrated and post-processed per call into the core (bounded memory per chunk).
 CHUNK = 2000

@@ -25,7 +25,7 @@ from pydriver.analyses.statics import equilibrium
 from pydriver.errors import DeckError, RunError
 from pydriver.output import TimeseriesWriter
 from pydriver.progress import report
-from pydriver.result import Result
+from pydriver.run_result import Result
 
 
 def _peaks(model, ts: dict) -> dict:

@@ -9,7 +9,7 @@ import numpy as np
 from pydriver.analyses.common import base_summary, equilibrium_table, reactions, straight_zy_warnings
 from pydriver.analyses.singularity import equilibrium_report
 from pydriver.analyses.statics import equilibrium, unforced, unforced_note
-from pydriver.result import Result
+from pydriver.run_result import Result
 
 
 def cm_mode_shapes(model, q, shapes, h: float = 1.0e-6) -> np.ndarray:

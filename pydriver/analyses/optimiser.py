@@ -41,7 +41,7 @@ from pydriver.design_measures import Evaluation, allowed_gap, forbidden_bands
 from pydriver.design_problem import OPTIMISER_KEYS, Problem, problem
 from pydriver.errors import DeckError, RunError
 from pydriver.model import Model
-from pydriver.result import Result
+from pydriver.run_result import Result
 
 
 def base_deck(deck: Deck, analysis: str) -> Deck:

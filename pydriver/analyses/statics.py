@@ -11,7 +11,7 @@ import numpy as np
 from pydriver.analyses.common import base_summary, equilibrium_table, reactions, straight_zy_warnings
 from pydriver.analyses.singularity import equilibrium_report
 from pydriver.errors import RunError
-from pydriver.result import Result
+from pydriver.run_result import Result
 
 
 def has_pulse(model) -> bool:
