@@ -100,8 +100,6 @@ def parameters(deck: Deck) -> list[Parameter]:
     if analysis not in ANALYSES:
         _fail(deck, f"sensitivities are computed for analysis = {' or '.join(repr(a) for a in ANALYSES)} in "
                     f"this version, not '{analysis}'")
-    if deck["refinement.levels"] > 1:
-        _fail(deck, "sensitivities are computed at the deck's own n: set &refinement levels = 1")
     out, seen = [], set()
     for raw in names:
         p = _parameter(deck, str(raw))
@@ -142,6 +140,9 @@ def _parameter(deck: Deck, raw: str) -> Parameter:
         if not key.is_array:
             _fail(deck, f"'{raw}': {dotted} is not an array (no index)")
         i = int(index)
+        if key.shape in ("body", "joint") and deck["refinement.levels"] > 1:
+            _fail(deck, f"'{raw}': element {i} of a per-{key.shape} key is another part of the cable at each "
+                        "refinement level; with &refinement levels > 1 name the whole key (one value for all)")
         size = len(value)
         if not 1 <= i <= size:
             _fail(deck, f"'{raw}': index {i} is out of range 1 ... {size}")

@@ -132,6 +132,18 @@ COLUMNS = [
     Column(("sensitivities.csv",), "value", "*", "d(output)/d(parameter) at the run's equilibrium or periodic "
                                                  "state (unit in the unit column; per degree for angle keys)"),
     Column(("sensitivities.csv",), "unit", "-", "the unit of value: the output's unit over the parameter's"),
+    Column(("sensitivities_refined.csv",), "output", "-", "as in sensitivities.csv, joints numbered as at the "
+                                                          "deck's own n (refined runs with &design)"),
+    Column(("sensitivities_refined.csv",), "parameter", "-", "the &design parameter"),
+    Column(("sensitivities_refined.csv",), "unit", "-", "the unit of the values: the output's over the parameter's"),
+    Column(("sensitivities_refined.csv",), "n{n}", "*", "d(output)/d(parameter) at n bodies"),
+    Column(("sensitivities_refined.csv",), "extrapolated", "*", "its Richardson extrapolation: the converged "
+                                                                "sensitivity"),
+    Column(("sensitivities_refined.csv",), "error_estimate", "*", "its error estimate"),
+    Column(("sensitivities_refined.csv",), "observed_order", "-", "observed order of convergence of the "
+                                                                  "sensitivity (assumed: 2 levels)"),
+    Column(("sensitivities_refined.csv",), "order_observed", "-", "1: observed over 3 levels and used, 0: the "
+                                                                  "expected order used"),
     # -- design optimisation (analysis = 'design') ---------------------------------------------------------
     Column(("design_history.csv",), "iteration", "-", "0: the deck's design; then one row per optimiser iteration"),
     Column(("design_history.csv",), "{group}.{key}", "*", "a &design parameter's value (its unit from "

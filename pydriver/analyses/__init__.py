@@ -22,18 +22,42 @@ def run(model, run_dir=None, restart=None):
         result = dynamics.dynamic_analysis(model, run_dir, restart=restart)
     elif model.deck["refinement.levels"] > 1:
         from pydriver.analyses.refinement import run_refined
-        result = run_refined(model, run_dir, run_single)
+        result = run_refined(model, run_dir, _with_sensitivities(model, plans) if plans else run_single)
     else:
         result = run_single(model, run_dir)
+        attach_sensitivities(model, result, plans)
     if "fatigue" in model.deck.groups and "fatigue" not in result.summary:
         result.summary.setdefault("warnings", []).append(
             f"&fatigue is not evaluated: analysis '{model.analysis}' has no load history (flight or dynamic has)")
-    attach_sensitivities(model, result, plans)
     from pydriver.analyses.resonance import attach_margins
     attach_margins(model, result)
     from pydriver.analyses.limits import attach_limits
     attach_limits(model, result)
     return result
+
+
+def _with_sensitivities(model, plans):
+    """A refined run's analysis of one level with that level's sensitivities; after the finest
+    level, their extrapolation (:mod:`pydriver.analyses.refined_sensitivities`)."""
+    from pydriver.analyses.refined_sensitivities import refine_sensitivities
+    from pydriver.analyses.sensitivities import attach_sensitivities, plan
+    levels, ns = [], []
+
+    def analyse(m, run_dir):
+        result = run_single(m, run_dir)
+        # Each level's parameters are rebuilt at its own n (the deck's plans at the deck's n).
+        attach_sensitivities(m, result, plans if m.n_bodies == model.n_bodies else plan(m))
+        levels.append(result.summary["sensitivities"])
+        ns.append(m.n_bodies)
+        if len(levels) == int(model.deck["refinement.levels"]):
+            refined, rows, warnings = refine_sensitivities(levels, ns, float(model.deck["refinement.expected_order"]))
+            result.summary["sensitivities"]["refined"] = refined
+            result.summary.setdefault("warnings", []).extend(warnings)
+            result.extra["tables"]["sensitivities_refined.csv"] = rows
+            result.extra.setdefault("units", {})["sensitivities_refined.csv"] = {
+                key: "*" for key in rows if key.startswith("n") or key in ("extrapolated", "error_estimate")}
+        return result
+    return analyse
 
 
 def run_single(model, run_dir=None):
