@@ -328,9 +328,10 @@ def _periodic_start_krylov(model, settings, period, q0, v0, d_x, t_out):
     s* solves (I - Psi) s* = dX(T)/dp, Psi s the sensitivity after one revolution from s with the
     parameter partials off (the core's projection onto the constraint rows included).  The space
     grows by blocks: B_0 = the right-hand sides, B_(k+1) = the part of Psi B_k not yet spanned,
-    orthonormalised and cut to its singular values above rtol (a monodromy of low numerical rank,
-    as a damped cable's, gives a thin block: the main job's has 3 multiplier pairs above 1e-8, so
-    the second block has 6 columns and the third none).  Each block is one integration of its
+    orthonormalised and cut where it cannot matter (below 1e-2 rtol of the smallest right-hand
+    side, or round-off): a monodromy of low numerical rank, as a damped cable's, gives a thin
+    block (the main job's has 3 multiplier pairs above 1e-8; 8 parameters take blocks of 8 and
+    5 columns).  Each block is one integration of its
     columns over the revolution, recording S(t) B_k at every output time t_out; s* = B c with c
     the least-squares solution of (B - Psi B) c = dX(T)/dp per parameter, and the homogeneous
     part of the sensitivities is S(t) s* = (S(t) B) c: no further integration (the periodic
@@ -339,7 +340,7 @@ def _periodic_start_krylov(model, settings, period, q0, v0, d_x, t_out):
     The rates are weighted by T / 2 pi, so that q and v count alike.  Converged at a relative
     residual of the integration's rtol, beyond which the products carry integration error only.
     One-parameter GMRES (the earlier way) took 4 one-revolution products per parameter here,
-    this 2 blocks: 8 + 6 column-revolutions for 8 parameters against 32."""
+    this 2 blocks: 8 + 5 column-revolutions for 8 parameters against 32."""
     nq, n_par = model.nq, d_x.shape[1]
     scale = np.concatenate([np.ones(nq), np.full(nq, period / (2.0 * np.pi))])
     tol = float(settings["rtol"])
@@ -348,6 +349,10 @@ def _periodic_start_krylov(model, settings, period, q0, v0, d_x, t_out):
     basis, images, hist_q, hist_v, start_q, start_v = [], [], [], [], [], []
     work = {"matvecs": 0, "steps": 0, "block_columns": []}
     block = rhs / size
+    # A direction of the next block is kept where it can matter for the smallest right-hand side
+    # at its relative tolerance (the blocks' columns have norm <= 1), and above round-off.
+    smallest = float(np.min(np.linalg.norm(rhs, axis=0))) / size
+    cut = max(1.0e-2 * tol * smallest, 1.0e-13)
     res = [np.inf]
     for it in range(MAX_KRYLOV):
         w_in = block / scale[:, None]
@@ -378,7 +383,7 @@ def _periodic_start_krylov(model, settings, period, q0, v0, d_x, t_out):
         for _ in range(2):
             new = new - q_all @ (q_all.T @ new)
         u, sv, _ = np.linalg.svd(new, full_matrices=False)
-        keep = sv > tol * np.linalg.norm(images[-1])
+        keep = sv > cut
         if not np.any(keep):
             break
         block = u[:, keep]
