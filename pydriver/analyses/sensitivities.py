@@ -184,7 +184,7 @@ def _modal_sensitivities(model, plans: list[Plan], q, lam) -> dict:
     mm = model.core.modal_matrices(q, lam)
     n0 = mm["basis"]
     k0, m0 = _reduced(model, q, lam, n0)
-    k0 = 0.5 * (k0 + k0.T)                 # the core's dsygv takes the symmetric part (rotorcable_modal)
+    k0 = 0.5 * (k0 + k0.T)                 # the undamped modes take the symmetric part (linear_modes)
     # K_r phi = lambda M_r phi by Cholesky, M_r = L L^T: (L^-1 K_r L^-T) y = lambda y, phi = L^-T y;
     # phi^T M_r phi = 1.
     chol = np.linalg.cholesky(m0)
