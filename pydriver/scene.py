@@ -149,7 +149,9 @@ def scene(path, ignore: tuple = ()) -> Scene:
     ignore : tuple of str
         Loads of the registry (``pydriver.components.LOADS`` kinds, e.g. ``"drag"``) the caller's
         independent model leaves out on purpose; the scene then describes the model without them
-        (``Scene.ignored``).  Any other load the scene cannot describe is refused.
+        (``Scene.ignored``), except its start state, which stays the model's own (an equilibrium
+        start is that of the model with them).  Any other load the scene cannot describe is
+        refused.
 
     Raises
     ------
