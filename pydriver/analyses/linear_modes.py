@@ -6,7 +6,8 @@ manifold q = q* + N z, M_r zdd + D_r zd + K_r z = 0 with M_r = N^T M N, K_r = N^
 circulatory part kept) and D_r = N^T D N (its skew, gyroscopic part kept).  Here:
 
 * :func:`undamped_modes`: sym(K_r) phi = w^2 M_r phi, the conservative part (LAPACK dsygv through
-  SciPy), with the zero-stiffness and stability rules of the modal analysis;
+  SciPy, :func:`symmetric_modes`, which the frequency sensitivities solve too), with the
+  zero-stiffness and stability rules of the modal analysis;
 * :func:`complex_modes`: the eigenvalues s and complex shapes of the first-order system
   [0 I; -M_r^-1 K_r, -M_r^-1 D_r], zero-stiffness modes first, then one of each oscillating pair
   by frequency, then the real roots; the Campbell diagram follows these by MAC from speed to
@@ -48,6 +49,15 @@ def _check_finite(mats: dict) -> None:
         raise RunError("modal analysis: non-finite mass, stiffness or damping matrix")
 
 
+def symmetric_modes(k_s: np.ndarray, m_r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """w^2 (ascending, as solved) and the M_r-orthonormal shapes of k_s phi = w^2 m_r phi, k_s
+    symmetric, m_r symmetric positive definite (LAPACK dsygv).  RunError if it fails."""
+    try:
+        return scipy.linalg.eigh(k_s, m_r, driver="gv")
+    except (np.linalg.LinAlgError, ValueError) as err:
+        raise RunError(f"modal analysis: generalized symmetric eigenproblem failed (dsygv: {err})") from err
+
+
 def undamped_modes(mats: dict) -> tuple[np.ndarray, np.ndarray]:
     """w^2 (ascending; zero-stiffness ones set to 0) and the M_r-orthonormal shapes Z (nf, nf)
     of sym(K_r) phi = w^2 M_r phi.
@@ -57,11 +67,7 @@ def undamped_modes(mats: dict) -> tuple[np.ndarray, np.ndarray]:
     A clearly negative w^2 (below -ZERO_STIFFNESS_REL of the largest |w^2|) is an unstable
     equilibrium: RunError."""
     _check_finite(mats)
-    k_s = 0.5 * (mats["K_r"] + mats["K_r"].T)
-    try:
-        w2, z = scipy.linalg.eigh(k_s, mats["M_r"], driver="gv")        # LAPACK dsygv
-    except (np.linalg.LinAlgError, ValueError) as err:
-        raise RunError(f"modal analysis: generalized symmetric eigenproblem failed (dsygv: {err})") from err
+    w2, z = symmetric_modes(0.5 * (mats["K_r"] + mats["K_r"].T), mats["M_r"])
     w_zero = ZERO_STIFFNESS_REL * max(float(np.max(np.abs(w2), initial=0.0)), np.finfo(float).tiny)
     if w2.size and w2[0] < -w_zero:
         raise RunError("modal analysis: the equilibrium is unstable (negative stiffness eigenvalue)")
