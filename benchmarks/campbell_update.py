@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 import pydriver
-from pydriver.analyses import campbell
+from pydriver.analyses import campbell, linear_modes
 
 ROOT = Path(__file__).resolve().parents[1]
 DECKS = ["uh60_part2_campbell", "uh60_part2_campbell_soft"]
@@ -36,7 +36,7 @@ def solve_speeds_rebuilt(model, rpm):
         q, lam, _ = m.core.static(m.q0 if q_prev is None else q_prev, 0.0, s["newton_tol"], s["newton_max_iter"])
         q_prev = q
         mats = m.core.modal_matrices(q, lam)
-        solved.append((mats, *campbell.complex_modes(mats)))
+        solved.append((mats, *linear_modes.complex_modes(mats)))
     return solved
 
 

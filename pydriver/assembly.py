@@ -125,9 +125,12 @@ def build(deck: Deck) -> tuple[CoreModel, dict]:
     core : CoreModel
     description : dict
         What was built, as plain numbers: ``bodies``, ``first_coord``, the joint constants
-        ``stiffness``/``damping``/``rest`` per coordinate, ``support`` (the kind of support B
-        or None), ``clamp`` (position, rotation of a support that holds both, or None),
-        ``rotor`` (or None), and the deck's start state ``q0``, ``v0`` [rad, rad/s].
+        ``stiffness``/``damping``/``rest`` per coordinate, ``base_rotation`` and ``base_moves``
+        (support A carried by the rotor or the blade), ``loads`` (``{kind: {name: value}}``,
+        every load added, by its registry declaration), ``support`` (the kind of support B or
+        None) and ``support_parameters`` (its block by name, motion included), ``clamp``
+        (position, rotation of a support that holds both, or None), ``rotor`` (or None), and the
+        deck's start state ``q0``, ``v0`` [rad, rad/s].
     """
     b = bodies(deck)
     gamma = np.asarray(deck["shape.gamma_deg"], float) * DEG
@@ -142,8 +145,8 @@ def build(deck: Deck) -> tuple[CoreModel, dict]:
     first_coord = _first_coords(b.locked, {"zy": 2, "xy": 2, "xyz": 3}[deck["chain.joint"]])
     c, d, rest = joint_constants(deck, b)
     # Every load from its declaration in the component registry (pydriver/components.py).
-    add_loads(core, deck, {"stiffness": c, "damping": d, "rest": rest,
-                           "rotation_vector": rotation_vector_springs(deck, b)})
+    loads = add_loads(core, deck, {"stiffness": c, "damping": d, "rest": rest,
+                                   "rotation_vector": rotation_vector_springs(deck, b)})
     rot = rotor(deck)
     if rot is not None:
         core.set_rotor(rot["profile"], rot["centre"], rot["params"], rot["hub"], rot["body_couples"])
@@ -163,7 +166,8 @@ def build(deck: Deck) -> tuple[CoreModel, dict]:
     # The pose of a support that holds the orientation too (clamp B), for pydriver.scene.
     clamp = (params["position"], params["rotation"].reshape(3, 3, order="F")) if "rotation" in params else None
     return core, {"bodies": b, "first_coord": first_coord, "stiffness": c, "damping": d, "rest": rest,
-                  "base_rotation": base_rotation, "support": support.kind if support is not None else None,
+                  "base_rotation": base_rotation, "base_moves": bool(motion_a[0]), "loads": loads,
+                  "support": support.kind if support is not None else None, "support_parameters": params,
                   "clamp": clamp, "rotor": rot, "q0": q0, "v0": v0}
 
 

@@ -203,9 +203,23 @@ def support_motion_parameters(support: Component, deck: Deck, rot: dict | None, 
     return {"motion_ints": np.asarray(ints, np.int32), "motion_reals": np.asarray(reals, float)}
 
 
-def add_loads(core, deck: Deck, built: dict) -> None:
-    """Add every load of :data:`LOADS` the deck has to the model in ``core``."""
+def add_loads(core, deck: Deck, built: dict) -> dict:
+    """Add every load of :data:`LOADS` the deck has to the model in ``core``; returns what was
+    added, ``{kind: {name: value}}`` in the order added (``Model.description['loads']``)."""
+    added = {}
     for component in LOADS:
         if component.present(deck, built):
-            core.add_load(component.kind, component.pack(deck, built), context=component.context,
+            added[component.kind] = component.pack(deck, built)
+            core.add_load(component.kind, added[component.kind], context=component.context,
                           deck_keys=component.deck_keys)
+    return added
+
+
+def component_group(component: Component) -> str:
+    """The deck group a component is read from: a support's own group, a load's first key's."""
+    return component.group or component.parameters[0].keys[0].split(".")[0]
+
+
+def load_component(kind: str) -> Component:
+    """The declaration of the load ``kind`` (KeyError for a kind not in :data:`LOADS`)."""
+    return {c.kind: c for c in LOADS}[kind]

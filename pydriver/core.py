@@ -269,18 +269,10 @@ class CoreModel:
             out.update(K=k_tan, G=g_jac[:self.nc].copy())
         return out
 
-    def modal(self, q, lam, t: float = 0.0) -> dict:
-        """Modal analysis about (q, lambda): frequencies, damping, mode shapes in q."""
-        lam_in = np.zeros(max(self.nc, 1))
-        lam_in[:self.nc] = lam
-        fu, fd, zeta, shapes, stat, key, msg = _api.rc_modal(self.handle, float(t), _reals(q), lam_in,
-                                                             self.nq - self.nc)
-        _raise(self.deck, stat, key, msg)
-        return {"f_undamped_hz": fu, "f_damped_hz": fd, "zeta": zeta, "shapes": shapes}
-
     def modal_matrices(self, q, lam, t: float = 0.0) -> dict:
         """The linearised equations about (q, lambda) on the constraint manifold: basis N,
-        full M, and reduced M_r, K_r, D_r (D_r with the gyroscopic part of a turning frame)."""
+        full M, and reduced M_r, K_r, D_r (D_r with the gyroscopic part of a turning frame).
+        Their modes are solved in :mod:`pydriver.analyses.linear_modes`."""
         lam_in = np.zeros(max(self.nc, 1))
         lam_in[:self.nc] = lam
         basis, m_full, m_r, k_r, d_r, stat, key, msg = _api.rc_modal_matrices(

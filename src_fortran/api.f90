@@ -16,7 +16,7 @@ module rotorcable_api
   use rotorcable_model_builder, only: build_chain, build_load, build_base, build_support, build_rotor, &
                                       build_finish, thesis_to_coordinates
   use rotorcable_statics, only: static_settings, static_result, solve_static, static_system
-  use rotorcable_modal, only: modal_analysis, reduced_matrices
+  use rotorcable_modal, only: reduced_matrices
   use rotorcable_dae_integrator, only: integrator_settings, settings_from_arrays, dae_session, session_start, &
                                        session_advance, consistent_start
   use rotorcable_monodromy, only: monodromy_run
@@ -27,7 +27,7 @@ module rotorcable_api
   private
   public :: rc_model_new, rc_model_free, rc_model_add_load, rc_model_set_base, rc_model_add_support, &
             rc_model_set_rotor, rc_model_finish, rc_thesis_coordinates, rc_shape, rc_static, &
-            rc_static_system, rc_modal, rc_modal_matrices, rc_dynamic_start, rc_dynamic_advance, rc_dynamic_free, rc_sample, &
+            rc_static_system, rc_modal_matrices, rc_dynamic_start, rc_dynamic_advance, rc_dynamic_free, rc_sample, &
             rc_monodromy, rc_model_update, rc_model_parameter, rc_constraint_residual, rc_consistent_start, &
             rc_parameter_sensitivity
 
@@ -368,32 +368,10 @@ contains
     call report(error, stat, key, msg)
   end subroutine rc_static_system
 
-  !> Modal analysis about an equilibrium (q, lambda) at time t.
-  subroutine rc_modal(handle, t, nq, q, ncd, lambda, nf, f_undamped, f_damped, zeta, shapes, stat, key, msg)
-    integer(c_int), intent(in) :: handle          !< model handle
-    real(c_double), intent(in) :: t               !< time [s]
-    integer(c_int), intent(in) :: nq, ncd, nf     !< coordinates, max(1, nc), nq - nc
-    real(c_double), intent(in) :: q(nq)           !< equilibrium [rad]
-    real(c_double), intent(in) :: lambda(ncd)     !< multipliers
-    real(c_double), intent(out) :: f_undamped(nf) !< natural frequencies [Hz]
-    real(c_double), intent(out) :: f_damped(nf)   !< damped frequencies [Hz] (0 = overdamped or rigid)
-    real(c_double), intent(out) :: zeta(nf)       !< damping ratios
-    real(c_double), intent(out) :: shapes(nq, nf) !< mode shapes in q (mass-normalised)
-    integer(c_int), intent(out) :: stat           !< status
-    character(len=64), intent(out) :: key         !< input at fault
-    character(len=1024), intent(out) :: msg       !< why
-    type(model_type), pointer :: model
-    type(error_type) :: error
-    f_undamped = 0.0_dp; f_damped = 0.0_dp; zeta = 0.0_dp; shapes = 0.0_dp
-    model => model_of(handle, error)
-    if (error%code == 0) call modal_analysis(model, t, q, lambda(1:model%nc), f_undamped, f_damped, zeta, shapes, &
-                                             error)
-    call report(error, stat, key, msg)
-  end subroutine rc_modal
-
   !> The linearised equations about an equilibrium (q, lambda) at time t on the constraint
   !> manifold: null-space basis N, full M, and the reduced M_r, K_r, D_r (D_r with its
-  !> gyroscopic part), for eigen-analyses done in Python (the Campbell diagram).
+  !> gyroscopic part); their modes are solved in Python (pydriver/analyses/linear_modes.py: the
+  !> modal analysis and the Campbell diagram).
   subroutine rc_modal_matrices(handle, t, nq, q, ncd, lambda, nf, basis, m_full, m_r, k_r, d_r, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
     real(c_double), intent(in) :: t               !< time [s]

@@ -173,7 +173,7 @@ RESOLVED = 1.0e-6
 
 
 def hover_exponents(rtol: float):
-    from pydriver.analyses.campbell import complex_modes
+    from pydriver.analyses.linear_modes import complex_modes
     from pydriver.analyses.flight import rotor_period
     model = hover_model()
     period = rotor_period(model)

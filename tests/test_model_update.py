@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import pydriver
-from pydriver.analyses import campbell
+from pydriver.analyses import campbell, linear_modes
 from pydriver.analyses.statics import equilibrium, static_analysis, unforced
 from pydriver.errors import RunError
 from pydriver.motions import RPM
@@ -147,7 +147,7 @@ def solve_speeds_rebuilt(model, rpm):
         q, lam, _ = m.core.static(m.q0 if q_prev is None else q_prev, 0.0, s["newton_tol"], s["newton_max_iter"])
         q_prev = q
         mats = m.core.modal_matrices(q, lam)
-        solved.append((mats, *campbell.complex_modes(mats)))
+        solved.append((mats, *linear_modes.complex_modes(mats)))
     return solved
 
 

@@ -5,10 +5,10 @@ At each speed of the grid 0 ... rpm_max the equilibrium is found with the full r
 terms (continuation from the previous speed), and the equations are linearised about it on the
 constraint manifold (``CoreModel.modal_matrices``): M_r, K_r (centrifugal stiffening included)
 and D_r (joint dampers and the gyroscopic Coriolis coupling, which splits modes with speed).
-The eigenvalues of the first-order pencil, s = -zeta w +- i w sqrt(1 - zeta^2), give frequency
-and damping; modes are followed from speed to speed by the mass-weighted modal assurance
-criterion (MAC) of their complex shapes.  numpy's eig on the state matrix is used: at the
-sizes of a cable model (tens of coordinates) it is exact enough and leaves the core small.
+The eigenvalues of the first-order system, s = -zeta w +- i w sqrt(1 - zeta^2), give frequency
+and damping (``linear_modes.complex_modes``, the damped modes of the modal analysis too); modes
+are followed from speed to speed by the mass-weighted modal assurance criterion (MAC) of their
+complex shapes.
 
 The diagram is that of the steady loads: a force pulse of the deck (``&loads pulse_body``) is a
 dynamic excitation and is left out, as in the static and modal analyses.
@@ -21,6 +21,7 @@ import time
 import numpy as np
 
 from pydriver.analyses.common import base_summary
+from pydriver.analyses.linear_modes import complex_modes, mac
 from pydriver.analyses.statics import unforced, unforced_note
 from pydriver.errors import RunError
 from pydriver.motions import RPM
@@ -37,11 +38,6 @@ MAC_THRESHOLD = 0.9
 #: A single ``operating_rpm`` value v is one operating speed; crossings are reported within
 #: v (1 +- this): a governed rotor holds its speed to a few percent (droop, transients).
 SINGLE_SPEED_MARGIN = 0.05
-
-#: K_r eigenvalues (w^2) below this fraction of the largest are zero stiffness, as in the
-#: modal analysis (src_fortran/modal.f90: a coordinate without a spring and without a load
-#: across it).
-ZERO_STIFFNESS_REL = 1.0e-9
 
 
 # -- deck values ------------------------------------------------------------------------------
@@ -109,61 +105,6 @@ def check_mode_count(model, n_modes: int) -> None:
 
 
 # -- modes at one speed -----------------------------------------------------------------------
-
-def zero_stiffness_basis(m_r: np.ndarray, k_r: np.ndarray) -> np.ndarray:
-    """An M_r-orthonormal basis (nf, k) of the coordinates K_r does not resist (k may be 0).
-
-    With M_r = L L^T, K_r x = 0 is (L^-1 K_r L^-T) y = 0 for y = L^T x; the singular vectors of
-    that matrix with (relatively) zero singular values are orthonormal, so x = L^-T y is
-    M_r-orthonormal.  The SVD needs no symmetry (a follower load makes K_r unsymmetric)."""
-    chol = np.linalg.cholesky(m_r)
-    scaled = np.linalg.solve(chol, np.linalg.solve(chol, k_r.T).T)
-    _, sing, vh = np.linalg.svd(scaled)
-    null = sing <= ZERO_STIFFNESS_REL * np.max(sing, initial=0.0)
-    return np.linalg.solve(chol.T, vh[null].conj().T)
-
-
-def complex_modes(mats: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Eigenvalues s and shapes in q of the linearised system, lowest first.
-
-    First the zero-stiffness modes (s = 0, an M_r-orthonormal basis of K_r's null space: the
-    eigenvectors eig returns there are defective, parallel pairs when nothing damps them),
-    then one of each oscillating pair (Im s > 0) by ascending frequency, then the other
-    non-oscillating ones (real s: overdamped, or, with Re s > 0, a divergent equilibrium).
-    Also returns which are oscillating and which have zero stiffness."""
-    m, k, d, basis = mats["M_r"], mats["K_r"], mats["D_r"], mats["basis"]
-    nf = m.shape[0]
-    minv = np.linalg.inv(m)
-    a = np.block([[np.zeros((nf, nf)), np.eye(nf)], [-minv @ k, -minv @ d]])
-    s, v = np.linalg.eig(a)
-    v = v.astype(complex)                         # all-real spectra come back as real arrays
-    null = zero_stiffness_basis(m, k)
-    n_zero = null.shape[1]
-    keep = np.ones(len(s), bool)
-    if n_zero:
-        # The null space has between n_zero (damped) and 2 n_zero (undamped: Jordan pairs) roots
-        # at 0; eig scatters a Jordan pair by ~sqrt(round-off), hence the loose 1e-4.
-        smallest = np.argsort(np.abs(s))
-        near = int(np.count_nonzero(np.abs(s) <= 1e-4 * max(1.0, np.max(np.abs(s)))))
-        keep[smallest[:min(max(near, n_zero), 2 * n_zero)]] = False
-    tiny = 1e-9 * max(1.0, np.max(np.abs(s)))
-    osc = keep & (s.imag > tiny)
-    real = keep & (np.abs(s.imag) <= tiny)
-    order = np.concatenate([np.flatnonzero(osc)[np.argsort(s.imag[osc])], np.flatnonzero(real)])
-    sv = np.concatenate([np.zeros(n_zero, complex), s[order]])
-    shapes = np.hstack([basis @ null.astype(complex), basis @ v[:nf, order]])
-    oscillating = np.concatenate([np.zeros(n_zero, bool), osc[order]])
-    zero = np.arange(len(sv)) < n_zero
-    return sv, shapes, oscillating, zero
-
-
-def mac(a: np.ndarray, b: np.ndarray, m_full: np.ndarray) -> np.ndarray:
-    """Mass-weighted MAC between the columns of a and b (complex shapes in q)."""
-    cross = a.conj().T @ m_full @ b
-    na = np.real(np.einsum("ij,ik,kj->j", a.conj(), m_full, a))
-    nb = np.real(np.einsum("ij,ik,kj->j", b.conj(), m_full, b))
-    return np.abs(cross) ** 2 / np.maximum(np.outer(na, nb), np.finfo(float).tiny)
-
 
 def degenerate_clusters(sv: np.ndarray, count: int, rel: float = 1e-7) -> list[np.ndarray]:
     """Groups (two or more) among the first ``count`` eigenvalues that coincide to ``rel``:

@@ -7,8 +7,10 @@ import time
 import numpy as np
 
 from pydriver.analyses.common import base_summary, equilibrium_table, reactions, straight_zy_warnings
+from pydriver.analyses.linear_modes import modal_modes
 from pydriver.analyses.singularity import equilibrium_report
 from pydriver.analyses.statics import equilibrium, unforced, unforced_note
+from pydriver.errors import RunError
 from pydriver.run_result import Result
 
 
@@ -23,13 +25,24 @@ def cm_mode_shapes(model, q, shapes, h: float = 1.0e-6) -> np.ndarray:
     return out
 
 
+def modes_about(model, q, lam) -> dict:
+    """The modal analysis's modes about the equilibrium (q, lambda): the core's linearised
+    equations solved by :func:`pydriver.analyses.linear_modes.modal_modes`; its RunError names
+    the deck."""
+    mats = model.core.modal_matrices(q, lam)
+    try:
+        return modal_modes(mats)
+    except RunError as err:
+        raise RunError(f"deck '{model.name}': {err}") from err
+
+
 def modal_analysis(model) -> Result:
     """Frequencies, damping ratios and mode shapes about the equilibrium."""
     t0 = time.perf_counter()
     notes = unforced_note(model)
     with unforced(model):
         q, lam, stats = equilibrium(model)
-        modes = model.core.modal(q, lam)
+        modes = modes_about(model, q, lam)
         zero = np.zeros((model.nq, 1))
         sample = model.core.sample([0.0], q[:, None], zero)
         cm_shapes = cm_mode_shapes(model, q, modes["shapes"])

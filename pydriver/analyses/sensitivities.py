@@ -32,6 +32,7 @@ from __future__ import annotations
 import numpy as np
 
 from pydriver.analyses.common import REACTION_NAMES
+from pydriver.analyses.linear_modes import symmetric_modes
 from pydriver.analyses.statics import drop_pulse, unforced
 from pydriver.design import Parameter, parameters, ratio_unit, step
 from pydriver.errors import DeckError, RunError
@@ -184,13 +185,10 @@ def _modal_sensitivities(model, plans: list[Plan], q, lam) -> dict:
     mm = model.core.modal_matrices(q, lam)
     n0 = mm["basis"]
     k0, m0 = _reduced(model, q, lam, n0)
-    k0 = 0.5 * (k0 + k0.T)                 # the core's dsygv takes the symmetric part (rotorcable_modal)
-    # K_r phi = lambda M_r phi by Cholesky, M_r = L L^T: (L^-1 K_r L^-T) y = lambda y, phi = L^-T y;
-    # phi^T M_r phi = 1.
-    chol = np.linalg.cholesky(m0)
-    a = np.linalg.solve(chol, np.linalg.solve(chol, k0).T).T
-    ev, y = np.linalg.eigh(0.5 * (a + a.T))
-    phi = np.linalg.solve(chol.T, y)
+    k0 = 0.5 * (k0 + k0.T)                 # the undamped modes take the symmetric part
+    # The modal analysis's undamped problem K_r phi = lambda M_r phi, phi^T M_r phi = 1; the
+    # eigenvalues as solved (a non-positive one is a warning here, not an error).
+    ev, phi = symmetric_modes(k0, m0)
     count = min(N_FREQUENCIES, ev.size)
     warnings = []
     keep = []
