@@ -33,12 +33,9 @@ module rotorcable_loads_anchor
 
 contains
 
-  !> Build from its parameter block: joint, point, stiffness.
+  !> Build from its parameter block: joint, point(3) [m], stiffness [N/m].
   subroutine new_anchor(slot, chain, params, error)
-    type(load_slot), intent(inout) :: slot    !< slot to fill
-    type(chain_type), intent(in) :: chain     !< chain description
-    type(parameter_block), intent(in) :: params  !< joint, point(3) [m], stiffness [N/m]
-    type(error_type), intent(inout) :: error  !< status
+    include 'constructor_arguments.inc'
     type(anchor_load) :: load
     call get_int(params, 'joint', load%joint, error)
     call get_reals(params, 'point', load%point, error)
@@ -56,11 +53,7 @@ contains
 
   pure subroutine add_forces(self, chain, st, fs, t, q, v, force, moment, tau)
     class(anchor_load), intent(in) :: self
-    type(chain_type), intent(in) :: chain
-    type(chain_state), intent(in) :: st
-    type(frame_state), intent(in) :: fs
-    real(dp), intent(in) :: t, q(:), v(:)
-    real(dp), intent(inout) :: force(:, :), moment(:, :), tau(:)
+    include 'force_arguments.inc'
     real(dp) :: f(3)
     integer :: b
     b = self%body
@@ -72,12 +65,7 @@ contains
   !> dF = -k dP_j;  dM = (dP_j - dC_b) x F + (P_j - C_b) x dF.
   pure subroutine add_force_tangent(self, chain, st, dst, fs, t, q, v, dq, dv, dforce, dmoment, dtau)
     class(anchor_load), intent(in) :: self
-    type(chain_type), intent(in) :: chain
-    type(chain_state), intent(in) :: st
-    type(chain_tangent), intent(in) :: dst
-    type(frame_state), intent(in) :: fs
-    real(dp), intent(in) :: t, q(:), v(:), dq(:), dv(:)
-    real(dp), intent(inout) :: dforce(:, :), dmoment(:, :), dtau(:)
+    include 'force_tangent_arguments.inc'
     real(dp) :: f(3), df(3)
     integer :: b, j
     b = self%body

@@ -34,12 +34,9 @@ module rotorcable_loads_drag
 
 contains
 
-  !> Build from its parameter block: air_density, stream, cd.
+  !> Build from its parameter block: air_density rho [kg/m^3], stream V_inf(3) [m/s], cd C_d per body.
   subroutine new_drag(slot, chain, params, error)
-    type(load_slot), intent(inout) :: slot    !< slot to fill
-    type(chain_type), intent(in) :: chain     !< chain description
-    type(parameter_block), intent(in) :: params  !< rho [kg/m^3], V_inf(3) [m/s], C_d per body
-    type(error_type), intent(inout) :: error  !< status
+    include 'constructor_arguments.inc'
     type(drag_load) :: load
     real(dp) :: cd(chain%n_bodies)
     call get_real(params, 'air_density', load%density, error)
@@ -54,11 +51,7 @@ contains
 
   pure subroutine add_forces(self, chain, st, fs, t, q, v, force, moment, tau)
     class(drag_load), intent(in) :: self
-    type(chain_type), intent(in) :: chain
-    type(chain_state), intent(in) :: st
-    type(frame_state), intent(in) :: fs
-    real(dp), intent(in) :: t, q(:), v(:)
-    real(dp), intent(inout) :: force(:, :), moment(:, :), tau(:)
+    include 'force_arguments.inc'
     real(dp) :: stream(3), u(3), e(3)
     integer :: j
     stream = matmul(self%stream, fs%rotation)        ! R^T V_inf: inertial -> model frame
@@ -75,12 +68,7 @@ contains
   !> differentiable at u_n = 0, where its derivative vanishes.
   pure subroutine add_force_tangent(self, chain, st, dst, fs, t, q, v, dq, dv, dforce, dmoment, dtau)
     class(drag_load), intent(in) :: self
-    type(chain_type), intent(in) :: chain
-    type(chain_state), intent(in) :: st
-    type(chain_tangent), intent(in) :: dst
-    type(frame_state), intent(in) :: fs
-    real(dp), intent(in) :: t, q(:), v(:), dq(:), dv(:)
-    real(dp), intent(inout) :: dforce(:, :), dmoment(:, :), dtau(:)
+    include 'force_tangent_arguments.inc'
     real(dp) :: stream(3), u(3), e(3), de(3), du(3), un(3), dun(3), th(3), size_un
     integer :: j
     stream = matmul(self%stream, fs%rotation)

@@ -26,12 +26,9 @@ module rotorcable_loads_gravity
 
 contains
 
-  !> Build from its parameter block: g.
+  !> Build from its parameter block: g(3) [m/s^2].
   subroutine new_gravity(slot, chain, params, error)
-    type(load_slot), intent(inout) :: slot    !< slot to fill
-    type(chain_type), intent(in) :: chain     !< chain description
-    type(parameter_block), intent(in) :: params  !< g(3) [m/s^2]
-    type(error_type), intent(inout) :: error  !< status
+    include 'constructor_arguments.inc'
     type(gravity_load) :: load
     call get_reals(params, 'g', load%g, error)
     if (error%code /= 0) return
@@ -41,11 +38,7 @@ contains
 
   pure subroutine add_forces(self, chain, st, fs, t, q, v, force, moment, tau)
     class(gravity_load), intent(in) :: self
-    type(chain_type), intent(in) :: chain
-    type(chain_state), intent(in) :: st
-    type(frame_state), intent(in) :: fs
-    real(dp), intent(in) :: t, q(:), v(:)
-    real(dp), intent(inout) :: force(:, :), moment(:, :), tau(:)
+    include 'force_arguments.inc'
     integer :: j
     do j = 1, chain%n_bodies
       force(:, j) = force(:, j) + chain%mass(j)*self%g
@@ -54,12 +47,7 @@ contains
 
   pure subroutine add_force_tangent(self, chain, st, dst, fs, t, q, v, dq, dv, dforce, dmoment, dtau)
     class(gravity_load), intent(in) :: self
-    type(chain_type), intent(in) :: chain
-    type(chain_state), intent(in) :: st
-    type(chain_tangent), intent(in) :: dst
-    type(frame_state), intent(in) :: fs
-    real(dp), intent(in) :: t, q(:), v(:), dq(:), dv(:)
-    real(dp), intent(inout) :: dforce(:, :), dmoment(:, :), dtau(:)
+    include 'force_tangent_arguments.inc'
     ! m g at the CM does not change; its moment about the joint point moves with the CM, which
     ! the Newton-Euler tangent takes care of.
   end subroutine add_force_tangent

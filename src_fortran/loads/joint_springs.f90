@@ -33,12 +33,10 @@ module rotorcable_loads_joint_springs
 
 contains
 
-  !> Build from its parameter block: stiffness, damping, rest, one value per coordinate.
+  !> Build from its parameter block: stiffness c [Nm/rad], damping d [Nms/rad], rest q_rest [rad],
+  !> one value per coordinate each.
   subroutine new_joint_springs(slot, chain, params, error)
-    type(load_slot), intent(inout) :: slot    !< slot to fill
-    type(chain_type), intent(in) :: chain     !< chain description
-    type(parameter_block), intent(in) :: params  !< c [Nm/rad], d [Nms/rad], q_rest [rad]
-    type(error_type), intent(inout) :: error  !< status
+    include 'constructor_arguments.inc'
     type(joint_springs_load) :: load
     integer :: nq
     nq = chain%n_coords
@@ -53,22 +51,13 @@ contains
 
   pure subroutine add_forces(self, chain, st, fs, t, q, v, force, moment, tau)
     class(joint_springs_load), intent(in) :: self
-    type(chain_type), intent(in) :: chain
-    type(chain_state), intent(in) :: st
-    type(frame_state), intent(in) :: fs
-    real(dp), intent(in) :: t, q(:), v(:)
-    real(dp), intent(inout) :: force(:, :), moment(:, :), tau(:)
+    include 'force_arguments.inc'
     tau = tau - self%stiffness*(q - self%rest) - self%damping*v
   end subroutine add_forces
 
   pure subroutine add_force_tangent(self, chain, st, dst, fs, t, q, v, dq, dv, dforce, dmoment, dtau)
     class(joint_springs_load), intent(in) :: self
-    type(chain_type), intent(in) :: chain
-    type(chain_state), intent(in) :: st
-    type(chain_tangent), intent(in) :: dst
-    type(frame_state), intent(in) :: fs
-    real(dp), intent(in) :: t, q(:), v(:), dq(:), dv(:)
-    real(dp), intent(inout) :: dforce(:, :), dmoment(:, :), dtau(:)
+    include 'force_tangent_arguments.inc'
     dtau = dtau - self%stiffness*dq - self%damping*dv
   end subroutine add_force_tangent
 

@@ -34,12 +34,9 @@ module rotorcable_loads_pulse
 
 contains
 
-  !> Build from its parameter block: body, force, t_start, t_end.
+  !> Build from its parameter block: body, force(3) [N], t_start, t_end [s].
   subroutine new_pulse(slot, chain, params, error)
-    type(load_slot), intent(inout) :: slot    !< slot to fill
-    type(chain_type), intent(in) :: chain     !< chain description
-    type(parameter_block), intent(in) :: params  !< body, force(3) [N], t_start, t_end [s]
-    type(error_type), intent(inout) :: error  !< status
+    include 'constructor_arguments.inc'
     type(pulse_load) :: load
     call get_int(params, 'body', load%body, error)
     call get_reals(params, 'force', load%force, error)
@@ -60,23 +57,14 @@ contains
 
   pure subroutine add_forces(self, chain, st, fs, t, q, v, force, moment, tau)
     class(pulse_load), intent(in) :: self
-    type(chain_type), intent(in) :: chain
-    type(chain_state), intent(in) :: st
-    type(frame_state), intent(in) :: fs
-    real(dp), intent(in) :: t, q(:), v(:)
-    real(dp), intent(inout) :: force(:, :), moment(:, :), tau(:)
+    include 'force_arguments.inc'
     if (.not. self%enabled) return
     if (t >= self%t_start .and. t < self%t_end) force(:, self%body) = force(:, self%body) + self%force
   end subroutine add_forces
 
   pure subroutine add_force_tangent(self, chain, st, dst, fs, t, q, v, dq, dv, dforce, dmoment, dtau)
     class(pulse_load), intent(in) :: self
-    type(chain_type), intent(in) :: chain
-    type(chain_state), intent(in) :: st
-    type(chain_tangent), intent(in) :: dst
-    type(frame_state), intent(in) :: fs
-    real(dp), intent(in) :: t, q(:), v(:), dq(:), dv(:)
-    real(dp), intent(inout) :: dforce(:, :), dmoment(:, :), dtau(:)
+    include 'force_tangent_arguments.inc'
     ! A constant force at the CM: no change (its lever arm is the Newton-Euler tangent's).
   end subroutine add_force_tangent
 

@@ -53,12 +53,10 @@ module rotorcable_loads_rotation_springs
 
 contains
 
-  !> Build from its parameter block (stiffness, damping); every free joint must be an xyz joint.
+  !> Build from its parameter block: stiffness, damping, 3 per free joint; every free joint must
+  !> be an xyz joint.
   subroutine new_rotation_springs(slot, chain, params, error)
-    type(load_slot), intent(inout) :: slot    !< slot to fill
-    type(chain_type), intent(in) :: chain     !< chain description
-    type(parameter_block), intent(in) :: params  !< stiffness, damping: 3 per free joint
-    type(error_type), intent(inout) :: error  !< status
+    include 'constructor_arguments.inc'
     type(rotation_springs_load) :: load
     real(dp), allocatable :: stiffness(:), damping(:)
     integer :: j, k, n_free
@@ -126,11 +124,7 @@ contains
 
   pure subroutine add_forces(self, chain, st, fs, t, q, v, force, moment, tau)
     class(rotation_springs_load), intent(in) :: self
-    type(chain_type), intent(in) :: chain
-    type(chain_state), intent(in) :: st
-    type(frame_state), intent(in) :: fs
-    real(dp), intent(in) :: t, q(:), v(:)
-    real(dp), intent(inout) :: force(:, :), moment(:, :), tau(:)
+    include 'force_arguments.inc'
     real(dp) :: phi(3), a(3, 3), w(3), torque(3)
     integer :: j, i0
     do j = 1, chain%n_bodies
@@ -167,12 +161,7 @@ contains
   !> R_c^T (da_l - dtheta_c x a_l), which depends on the joint's own dq only.
   pure subroutine add_force_tangent(self, chain, st, dst, fs, t, q, v, dq, dv, dforce, dmoment, dtau)
     class(rotation_springs_load), intent(in) :: self
-    type(chain_type), intent(in) :: chain
-    type(chain_state), intent(in) :: st
-    type(chain_tangent), intent(in) :: dst
-    type(frame_state), intent(in) :: fs
-    real(dp), intent(in) :: t, q(:), v(:), dq(:), dv(:)
-    real(dp), intent(inout) :: dforce(:, :), dmoment(:, :), dtau(:)
+    include 'force_tangent_arguments.inc'
     real(dp) :: phi(3), dphi(3), a(3, 3), da(3, 3), rc(3, 3), kphi(3), dkphi(3), pk(3), w(3), dw(3)
     real(dp) :: g(3), dg(3), torque(3), dtorque(3), th(3), ax(3), c, dc_da, dc, size_phi
     integer :: j, i0, l

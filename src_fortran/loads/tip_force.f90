@@ -27,12 +27,9 @@ module rotorcable_loads_tip_force
 
 contains
 
-  !> Build from its parameter block: force.
+  !> Build from its parameter block: force(3) [N].
   subroutine new_tip_force(slot, chain, params, error)
-    type(load_slot), intent(inout) :: slot    !< slot to fill
-    type(chain_type), intent(in) :: chain     !< chain description
-    type(parameter_block), intent(in) :: params  !< force(3) [N]
-    type(error_type), intent(inout) :: error  !< status
+    include 'constructor_arguments.inc'
     type(tip_force_load) :: load
     call get_reals(params, 'force', load%force, error)
     if (error%code /= 0) return
@@ -42,11 +39,7 @@ contains
 
   pure subroutine add_forces(self, chain, st, fs, t, q, v, force, moment, tau)
     class(tip_force_load), intent(in) :: self
-    type(chain_type), intent(in) :: chain
-    type(chain_state), intent(in) :: st
-    type(frame_state), intent(in) :: fs
-    real(dp), intent(in) :: t, q(:), v(:)
-    real(dp), intent(inout) :: force(:, :), moment(:, :), tau(:)
+    include 'force_arguments.inc'
     real(dp) :: arm(3)
     integer :: n
     n = chain%n_bodies
@@ -57,12 +50,7 @@ contains
 
   pure subroutine add_force_tangent(self, chain, st, dst, fs, t, q, v, dq, dv, dforce, dmoment, dtau)
     class(tip_force_load), intent(in) :: self
-    type(chain_type), intent(in) :: chain
-    type(chain_state), intent(in) :: st
-    type(chain_tangent), intent(in) :: dst
-    type(frame_state), intent(in) :: fs
-    real(dp), intent(in) :: t, q(:), v(:), dq(:), dv(:)
-    real(dp), intent(inout) :: dforce(:, :), dmoment(:, :), dtau(:)
+    include 'force_tangent_arguments.inc'
     real(dp) :: darm(3)
     integer :: n
     ! d((P_{n+1} - C_n) x F): the arm turns with the last body.

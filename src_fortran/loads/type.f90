@@ -53,30 +53,14 @@ module rotorcable_loads_type
     pure subroutine add_forces_interface(self, chain, st, fs, t, q, v, force, moment, tau)
       import :: load_term, chain_type, chain_state, frame_state, dp
       class(load_term), intent(in) :: self    !< the load
-      type(chain_type), intent(in) :: chain   !< chain description
-      type(chain_state), intent(in) :: st     !< frames, absolute velocities (model-frame coordinates)
-      type(frame_state), intent(in) :: fs     !< the model frame's motion at t
-      real(dp), intent(in) :: t               !< time [s]
-      real(dp), intent(in) :: q(:), v(:)      !< coordinates [rad] and rates [rad/s]
-      real(dp), intent(inout) :: force(:, :)  !< (3,n) force at each CM [N]
-      real(dp), intent(inout) :: moment(:, :) !< (3,n) moment on each body [Nm]
-      real(dp), intent(inout) :: tau(:)       !< (nq) generalized forces [Nm]
+      include 'force_arguments.inc'
     end subroutine add_forces_interface
 
     !> Add d(force), d(moment) (3,n) and d(tau) (nq) for the change (dst, dq, dv) at (st, t).
     pure subroutine add_force_tangent_interface(self, chain, st, dst, fs, t, q, v, dq, dv, dforce, dmoment, dtau)
       import :: load_term, chain_type, chain_state, chain_tangent, frame_state, dp
       class(load_term), intent(in) :: self    !< the load
-      type(chain_type), intent(in) :: chain   !< chain description
-      type(chain_state), intent(in) :: st     !< frames, absolute velocities at the state
-      type(chain_tangent), intent(in) :: dst  !< their first-order change
-      type(frame_state), intent(in) :: fs     !< the model frame's motion at t
-      real(dp), intent(in) :: t               !< time [s]
-      real(dp), intent(in) :: q(:), v(:)      !< coordinates [rad] and rates [rad/s]
-      real(dp), intent(in) :: dq(:), dv(:)    !< their change
-      real(dp), intent(inout) :: dforce(:, :) !< (3,n)
-      real(dp), intent(inout) :: dmoment(:, :)  !< (3,n)
-      real(dp), intent(inout) :: dtau(:)      !< (nq)
+      include 'force_tangent_arguments.inc'
     end subroutine add_force_tangent_interface
   end interface
 
