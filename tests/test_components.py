@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 
 from conftest import ROOT
-from pydriver.components import LOADS, SHAPES, SUPPORTS
+from pydriver.components import LOADS, SHAPES, SOLVER, SUPPORTS
 from pydriver.core import CoreModel, _parameter_arrays
-from pydriver.errors import RunError
-from pydriver.schema import lookup
+from pydriver.errors import DeckError, RunError
+from pydriver.model import Model
+from pydriver.schema import LINEAR_SOLVERS, lookup
 
 
 def three_bodies() -> CoreModel:
@@ -28,6 +29,8 @@ def test_parameters_travel_by_name():
     assert names_r.split() == ["air_density", "stream", "cd"] and list(sizes_r) == [1, 3, 2]
     assert list(reals) == [1.2, 1.0, 2.0, 3.0, 0.5, 0.6]
     assert names_i.split() == ["body"] and list(sizes_i) == [1] and list(ints) == [2]
+    names_r, sizes_r, reals, names_i, sizes_i, ints = _parameter_arrays({"linear_solver": "chain"})
+    assert names_i.split() == ["linear_solver"] and list(sizes_i) == [5] and bytes(ints.astype("u1")) == b"chain"
 
 
 def test_a_missing_parameter_is_an_error_naming_load_and_name():
@@ -81,7 +84,7 @@ def test_no_support_is_downcast_outside_its_own_file():
             assert not re.search(r"type is \(\w+_support\)", path.read_text()), path.name
 
 
-@pytest.mark.parametrize("component", LOADS + SUPPORTS, ids=lambda c: c.kind)
+@pytest.mark.parametrize("component", LOADS + SUPPORTS + (SOLVER,), ids=lambda c: c.kind)
 def test_every_declared_parameter_is_fed_by_schema_keys(component):
     """Each parameter names the deck keys that feed it; they are keys of the schema, and one fed
     straight by a single key has that key's unit and shape, so the schema (range, default, doc)
@@ -123,3 +126,33 @@ def test_every_declared_kind_is_known_to_its_factory(component):
 def test_every_support_group_has_an_active_key(component):
     """support_of names '&group active' when two supports are switched on."""
     assert lookup(component.group, "active") is not None and lookup(component.group, "active").type == "bool"
+
+
+def test_the_solver_settings_are_declared_once():
+    """The integrator settings travel as a keyed block (pydriver.components.SOLVER): a missing
+    name is refused by the core naming it, and each declared name is a &solver deck key."""
+    model = Model.from_deck(ROOT / "inputs" / "six_link_dynamic.nml")
+    settings = model.solver_settings()
+    assert list(settings) == [p.name for p in SOLVER.parameters]
+    assert all(p.keys == (f"solver.{p.name}",) for p in SOLVER.parameters)
+    del settings["atol"]
+    with pytest.raises(RunError, match=r"solver: no parameter 'atol'"):
+        model.core.start(settings, 0.0, model.q0, model.v0)
+
+
+@pytest.mark.parametrize("choice", [c for c in lookup("solver", "linear_solver").choices if c != "auto"] + ["lu"])
+def test_the_linear_solvers_are_written_once(choice):
+    """The schema's choices (pydriver.schema.LINEAR_SOLVERS) are the words the core takes, by name:
+    every one starts an integration, and any other word is a DeckError naming the key."""
+    model = Model.from_deck(ROOT / "inputs" / "six_link_dynamic.nml")
+    settings = dict(model.solver_settings(), linear_solver=choice)
+    assert lookup("solver", "linear_solver").choices == ("auto", *LINEAR_SOLVERS)
+    if choice in LINEAR_SOLVERS:
+        session = model.core.start(settings, 0.0, model.q0, model.v0)
+        q, _ = session.advance([1.0e-3])
+        session.close()
+        assert np.all(np.isfinite(q))
+    else:
+        with pytest.raises(DeckError, match="linear_solver") as exc:
+            model.core.start(settings, 0.0, model.q0, model.v0)
+        assert "'lu' is not one of this core's" in str(exc.value)
