@@ -18,7 +18,7 @@ import numpy as np
 from pydriver.components import add_loads, support_motion_parameters, support_of
 from pydriver.core import CoreModel
 from pydriver.deckfile import Deck
-from pydriver.motions import blade_azimuth0, rot_y, rot_z, rotor, support_motion
+from pydriver.motions import blade_azimuth0, rot_y, rot_z, rotor, rotor_parameters, support_motion
 from pydriver.shape_resample import chain_lengths
 
 DEG = np.pi / 180.0
@@ -146,7 +146,7 @@ def build(deck: Deck) -> tuple[CoreModel, dict]:
                            "rotation_vector": rotation_vector_springs(deck, b)})
     rot = rotor(deck)
     if rot is not None:
-        core.set_rotor(rot["profile"], rot["centre"], rot["params"], rot["hub"], rot["body_couples"])
+        core.set_rotor(rotor_parameters(rot))
     # Support B from its declaration in the registry; its position places the blade and moves A.
     support = support_of(deck)
     params = support.pack(deck, {"start_shape": core.shape(q0)}) if support is not None else {}
@@ -154,7 +154,7 @@ def build(deck: Deck) -> tuple[CoreModel, dict]:
     if rot is not None:
         rot["azimuth0"] = blade_azimuth0(deck, rot, b_position)
     motion_a = support_motion(deck, rot, "clamp_a", b_position)
-    if motion_a[0]:
+    if motion_a["motion.hinges"]:
         core.set_base(np.zeros(3), base_rotation, motion_a)
     if support is not None:
         params.update(support_motion_parameters(support, deck, rot, b_position))

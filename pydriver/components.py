@@ -13,8 +13,8 @@ A new load: its Fortran file, its lines in ``loads/factory.f90`` and ``src_fortr
 its :class:`Component` in :data:`LOADS`, and its keys in the schema (docs/architecture.md).  The
 integrator's settings are declared the same way (:data:`SOLVER`) and travel as a block too.  A new
 support the same with ``supports/factory.f90`` and :data:`SUPPORTS`; every support also gets
-``motion_ints`` and ``motion_reals``, the prescribed motion of its deck group
-(:func:`support_motion_parameters`).
+the prescribed motion of its deck group under ``motion.`` (:func:`support_motion_parameters`;
+the names are declared in :mod:`pydriver.motions`).
 """
 
 from __future__ import annotations
@@ -228,10 +228,9 @@ def support_of(deck: Deck) -> Component | None:
 
 
 def support_motion_parameters(support: Component, deck: Deck, rot: dict | None, position) -> dict:
-    """``motion_ints``, ``motion_reals``: the prescribed motion of the support's group
-    (pydriver.motions.support_motion; rotorcable_motion_builder's layout)."""
-    ints, reals = support_motion(deck, rot, support.group, position)
-    return {"motion_ints": np.asarray(ints, np.int32), "motion_reals": np.asarray(reals, float)}
+    """The prescribed motion of the support's group, its block's entries under ``motion.``
+    (pydriver.motions.support_motion; read by rotorcable_motion_builder)."""
+    return support_motion(deck, rot, support.group, position)
 
 
 def add_loads(core, deck: Deck, built: dict) -> None:

@@ -72,7 +72,6 @@ if os.environ.get("ROTORCABLE_FPE_TRAP") == "1":
         _probes = _FpeTrapped(_probes)
 
 JOINT_KINDS = {"zy": 1, "xy": 2, "xyz": 3}
-ROTOR_PROFILES = {"constant": 1, "runup": 2, "table": 3}
 
 
 def _text(x) -> str:
@@ -164,9 +163,12 @@ class CoreModel:
         stat, key, msg = _api.rc_model_add_load(self.handle, kind, *_parameter_arrays(params))
         _raise(self.deck, stat, (deck_keys or {}).get(_text(key), key), msg, context)
 
-    def set_base(self, position, rotation, motion=((), ())):
-        stat, key, msg = _api.rc_model_set_base(self.handle, _reals(position), np.asfortranarray(rotation, float),
-                                                _ints(motion[0]), _reals(motion[1]))
+    def set_base(self, position, rotation, motion: dict | None = None):
+        """Support A: P_1 [m], R_0 (3, 3) and its prescribed motion (the block entries of
+        :func:`pydriver.motions.motion_parameters`; None: fixed)."""
+        params = {"position": position, "rotation": np.asarray(rotation, float).ravel(order="F"),
+                  **(motion or {"motion.hinges": np.int32(0)})}
+        stat, key, msg = _api.rc_model_set_base(self.handle, *_parameter_arrays(params))
         _raise(self.deck, stat, key, msg, "clamp A")
 
     def add_support(self, kind: str, params: dict, context: str = "", deck_keys: dict | None = None):
@@ -175,9 +177,9 @@ class CoreModel:
         stat, key, msg = _api.rc_model_add_support(self.handle, kind, *_parameter_arrays(params))
         _raise(self.deck, stat, (deck_keys or {}).get(_text(key), key), msg, context)
 
-    def set_rotor(self, profile: str, centre, params, hub: bool, body_couples: bool):
-        stat, key, msg = _api.rc_model_set_rotor(self.handle, ROTOR_PROFILES[profile], _reals(centre),
-                                                 _reals(params), int(hub), int(body_couples))
+    def set_rotor(self, params: dict):
+        """The rotor and the frame, its parameter block by name (:func:`pydriver.motions.rotor_parameters`)."""
+        stat, key, msg = _api.rc_model_set_rotor(self.handle, *_parameter_arrays(params))
         _raise(self.deck, stat, key, msg, "rotor")
 
     def finish(self):

@@ -115,21 +115,28 @@ contains
     call report(error, stat, key, msg)
   end subroutine rc_model_add_load
 
-  !> Support A: reference pose and prescribed motion (rotorcable_motion_builder's layout).
-  subroutine rc_model_set_base(handle, position, rotation, ni, motion_ints, nr, motion_reals, stat, key, msg)
+  !> Support A: reference pose and prescribed motion, a parameter block sent flat as for
+  !> rc_model_add_load (rotorcable_model_builder, build_base).
+  subroutine rc_model_set_base(handle, real_names, nrn, real_sizes, nr, reals, int_names, nin, int_sizes, ni, ints, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
-    real(c_double), intent(in) :: position(3)     !< P_1 [m]
-    real(c_double), intent(in) :: rotation(3, 3)  !< R_0
-    integer(c_int), intent(in) :: ni, nr          !< motion description sizes
-    integer(c_int), intent(in) :: motion_ints(ni) !< motion integers
-    real(c_double), intent(in) :: motion_reals(nr)  !< motion reals
+    character(len=*), intent(in) :: real_names    !< names of the real arrays, blank-separated
+    integer(c_int), intent(in) :: nrn, nr         !< how many real arrays, real values
+    integer(c_int), intent(in) :: real_sizes(nrn) !< size of each real array
+    real(c_double), intent(in) :: reals(nr)       !< their values, one after the other
+    character(len=*), intent(in) :: int_names     !< names of the integer arrays
+    integer(c_int), intent(in) :: nin, ni         !< how many integer arrays, integer values
+    integer(c_int), intent(in) :: int_sizes(nin)  !< size of each integer array
+    integer(c_int), intent(in) :: ints(ni)        !< their values
     integer(c_int), intent(out) :: stat           !< status
     character(len=64), intent(out) :: key         !< input at fault
     character(len=1024), intent(out) :: msg       !< why
     type(model_type), pointer :: model
+    type(parameter_block) :: params
     type(error_type) :: error
     model => model_of(handle, error)
-    if (error%code == 0) call build_base(model, position, rotation, motion_ints, motion_reals, error)
+    if (error%code == 0) call block_from_flat('clamp A', real_names, real_sizes, reals, int_names, int_sizes, ints, &
+                                              params, error)
+    if (error%code == 0) call build_base(model, params, error)
     call report(error, stat, key, msg)
   end subroutine rc_model_set_base
 
@@ -160,22 +167,28 @@ contains
     call report(error, stat, key, msg)
   end subroutine rc_model_add_support
 
-  !> The rotor's speed profile and centre, and the frame of the equations.
-  subroutine rc_model_set_rotor(handle, kind, centre, np, params, hub, body_couples, stat, key, msg)
+  !> The rotor and the frame of the equations, a parameter block sent flat as for
+  !> rc_model_add_load (rotorcable_model_builder, build_rotor).
+  subroutine rc_model_set_rotor(handle, real_names, nrn, real_sizes, nr, reals, int_names, nin, int_sizes, ni, ints, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
-    integer(c_int), intent(in) :: kind            !< 1 constant, 2 run-up, 3 table
-    real(c_double), intent(in) :: centre(3)       !< rotor centre [m]
-    integer(c_int), intent(in) :: np              !< parameter count
-    real(c_double), intent(in) :: params(np)      !< profile parameters [rad/s, s]
-    integer(c_int), intent(in) :: hub             !< 1 = equations in the hub frame
-    integer(c_int), intent(in) :: body_couples    !< 1 = rotational inertia in the frame terms
+    character(len=*), intent(in) :: real_names    !< names of the real arrays, blank-separated
+    integer(c_int), intent(in) :: nrn, nr         !< how many real arrays, real values
+    integer(c_int), intent(in) :: real_sizes(nrn) !< size of each real array
+    real(c_double), intent(in) :: reals(nr)       !< their values, one after the other
+    character(len=*), intent(in) :: int_names     !< names of the integer arrays
+    integer(c_int), intent(in) :: nin, ni         !< how many integer arrays, integer values
+    integer(c_int), intent(in) :: int_sizes(nin)  !< size of each integer array
+    integer(c_int), intent(in) :: ints(ni)        !< their values
     integer(c_int), intent(out) :: stat           !< status
     character(len=64), intent(out) :: key         !< input at fault
     character(len=1024), intent(out) :: msg       !< why
     type(model_type), pointer :: model
+    type(parameter_block) :: params
     type(error_type) :: error
     model => model_of(handle, error)
-    if (error%code == 0) call build_rotor(model, kind, centre, params, hub /= 0, body_couples /= 0, error)
+    if (error%code == 0) call block_from_flat('rotor', real_names, real_sizes, reals, int_names, int_sizes, ints, &
+                                              params, error)
+    if (error%code == 0) call build_rotor(model, params, error)
     call report(error, stat, key, msg)
   end subroutine rc_model_set_rotor
 

@@ -15,6 +15,7 @@ from pydriver.components import LOADS, SHAPES, SOLVER, SUPPORTS
 from pydriver.core import CoreModel, _parameter_arrays
 from pydriver.errors import DeckError, RunError
 from pydriver.model import Model
+from pydriver.motions import ANGLES, HINGE, ROTOR_PROFILES, angle, motion_parameters
 from pydriver.schema import LINEAR_SOLVERS, lookup
 
 
@@ -60,7 +61,7 @@ def test_an_unknown_support_kind_is_an_error():
 
 
 def test_a_support_without_a_declared_parameter_is_an_error_naming_it():
-    motion = {"motion_ints": np.zeros(0, np.int32), "motion_reals": np.zeros(0)}
+    motion = {"motion.hinges": np.int32(0)}
     with pytest.raises(RunError, match=r"clamp: no parameter 'rotation'"):
         three_bodies().add_support("clamp", {"position": np.zeros(3), **motion})
     with pytest.raises(RunError, match=r"clamp: parameter 'rotation' has 4 values, expected 9"):
@@ -69,8 +70,7 @@ def test_a_support_without_a_declared_parameter_is_an_error_naming_it():
 
 def test_the_chain_end_takes_one_support():
     core = three_bodies()
-    clamp = {"position": [0.3, 0.0, 0.0], "rotation": np.eye(3).ravel(),
-             "motion_ints": np.zeros(0, np.int32), "motion_reals": np.zeros(0)}
+    clamp = {"position": [0.3, 0.0, 0.0], "rotation": np.eye(3).ravel(), "motion.hinges": np.int32(0)}
     core.add_support("clamp", clamp)
     with pytest.raises(RunError, match="has a support already"):
         core.add_support("clamp", clamp)
@@ -156,3 +156,56 @@ def test_the_linear_solvers_are_written_once(choice):
         with pytest.raises(DeckError, match="linear_solver") as exc:
             model.core.start(settings, 0.0, model.q0, model.v0)
         assert "'lu' is not one of this core's" in str(exc.value)
+
+
+def _values(names) -> dict:
+    # A table or a series gets three values (a spline needs three points), a scalar one.
+    return {name: [0.0, 1.0, 2.0] if name in ("t", "theta", "coefficients") else 0.5 for name in names}
+
+
+@pytest.mark.parametrize("kind", sorted(ANGLES))
+def test_every_declared_angle_is_read_by_name(kind):
+    """A hinge's angle travels by name (pydriver.motions.ANGLES, src_fortran/motion/
+    angle_function.f90): the core builds every declared kind from exactly its declared
+    parameters, and asks for each of them by name."""
+    values = _values(ANGLES[kind])
+    full = motion_parameters([((0.0, 0.0, 1.0), (0.0, 0.0, 0.0), angle(kind, **values))])
+    assert set(full) == {"motion.hinges"} | {f"motion.hinge1.{n}" for n in (*HINGE, *ANGLES[kind])}
+    three_bodies().set_base(np.zeros(3), np.eye(3), full)
+    for name in (*HINGE, *ANGLES[kind]):
+        part = {k: v for k, v in full.items() if k != f"motion.hinge1.{name}"}
+        with pytest.raises((RunError, DeckError), match=rf"no parameter 'motion.hinge1.{name}'"):
+            three_bodies().set_base(np.zeros(3), np.eye(3), part)
+
+
+def test_an_unknown_angle_kind_is_an_error_naming_it():
+    full = motion_parameters([((0.0, 0.0, 1.0), (0.0, 0.0, 0.0), angle("constant", value=0.1))])
+    full["motion.hinge1.angle"] = "spiral"
+    with pytest.raises((RunError, DeckError), match="'spiral' is not an angle kind"):
+        three_bodies().set_base(np.zeros(3), np.eye(3), full)
+    with pytest.raises(ValueError, match="declared"):
+        angle("fourier", azimuth0=0.0)
+
+
+@pytest.mark.parametrize("profile", sorted(ROTOR_PROFILES))
+def test_every_declared_rotor_profile_is_read_by_name(profile):
+    """The rotor's speed profile travels by name (pydriver.motions.ROTOR_PROFILES,
+    src_fortran/motion/rotor.f90): the core asks for each declared parameter by name."""
+    values = {"constant": {"omega": 10.0}, "table": {"t": [0.0, 1.0, 2.0], "omega": [0.0, 5.0, 10.0]},
+              "runup": {"omega_start": 0.0, "omega_end": 10.0, "t_start": 0.1, "duration": 1.0}}[profile]
+    full = {"profile": profile, "centre": np.zeros(3), "hub": np.int32(1), "body_couples": np.int32(1), **values}
+    three_bodies().set_rotor(full)
+    for name in ("centre", "hub", "body_couples", *ROTOR_PROFILES[profile]):
+        part = {k: v for k, v in full.items() if k != name}
+        with pytest.raises((RunError, DeckError), match=rf"no parameter '{name}'"):
+            three_bodies().set_rotor(part)
+    with pytest.raises(DeckError, match="'spin' is not a speed profile"):
+        three_bodies().set_rotor(dict(full, profile="spin"))
+
+
+def test_no_motion_is_read_by_position():
+    """The motion and rotor builders read names, not offsets into flat arrays."""
+    for name in ("builder.f90", "rotor.f90", "angle_function.f90"):
+        text = (ROOT / "src_fortran" / "motion" / name).read_text()
+        assert not re.search(r"\b(reals|ints|params)\(\w+ *[+:]", text), name
+    assert not re.search(r"motion_(ints|reals)", (ROOT / "pydriver" / "components.py").read_text())
