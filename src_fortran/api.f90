@@ -8,7 +8,7 @@ module rotorcable_api
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error
-  use rotorcable_model, only: model_type, positions_at, constraint_residual
+  use rotorcable_model, only: model_type, constraint_residual
   use rotorcable_model_registry, only: register_model, lookup_model, release_model, register_session, &
                                        lookup_session, release_session, open_sessions
   use rotorcable_model_update, only: update_parameter, parameter_value
@@ -315,9 +315,7 @@ contains
     model => model_of(handle, error)
     if (error%code == 0) call check_sizes(model, nq, nb, 'rc_shape', error)
     if (error%code == 0) then
-      call positions_at(model, t, q)
-      call shape_of(model, q, angles, cm, joints)
-      last_rotation = model%st%rot(:, :, nb)
+      call shape_of(model, t, q, angles, cm, joints, last_rotation)
     end if
     call report(error, stat, key, msg)
   end subroutine rc_shape
@@ -538,10 +536,10 @@ contains
                            'or a non-finite state)')
           exit
         end if
-        call joint_loads(model, axial(:, k), shear(:, k), bending(:, k), torsion(:, k), bend_angle(:, k), &
-                         moment_xy(:, :, k), bend_xy(:, :, k))
-        call shape_of(model, q(:, k), angles(:, :, k), cm(:, :, k), joints(:, :, k))
-        call support_motion(model, supports(:, k))
+        call joint_loads(model, t(k), q(:, k), v(:, k), axial(:, k), shear(:, k), bending(:, k), torsion(:, k), &
+                         bend_angle(:, k), moment_xy(:, :, k), bend_xy(:, :, k))
+        call shape_of(model, t(k), q(:, k), angles(:, :, k), cm(:, :, k), joints(:, :, k))
+        call support_motion(model, t(k), supports(:, k))
         psi(k) = model%rs%psi
       end do
     end if

@@ -146,7 +146,8 @@ contains
   end subroutine rc_probe_ggl_residual
 
   !> The first-order change of the GGL residual at (t, y, y') for the change (dy, dyd), by the
-  !> tangent sweep of the analytic Jacobian (ggl_residual_tangent, from body 1).
+  !> tangent sweep of the analytic Jacobian (ggl_residual_tangent, from body 1), which evaluates
+  !> its base point itself unless the workspace holds it (nothing is evaluated before it here).
   subroutine rc_probe_residual_tangent(handle, t, n, y, yd, dy, dyd, dr, stat, msg)
     integer(c_int), intent(in) :: handle          !< model handle
     real(c_double), intent(in) :: t               !< time [s]
@@ -158,14 +159,12 @@ contains
     character(len=1024), intent(out) :: msg       !< why not
     type(model_type), pointer :: model
     type(error_type) :: error
-    real(dp) :: r(n)
     dr = 0.0_dp
     model => model_of(handle, error)
     if (error%code == 0) then
       if (n /= 2*model%nq + 2*model%nc) call fatal_error(error, 'n must be 2 nq + 2 nc')
     end if
     if (error%code == 0) then
-      call ggl_residual_dense(model, t, y, yd, r)
       call ggl_residual_tangent(model, t, y, yd, dy, dyd, 1, dr)
     end if
     call to_status(error, stat, msg)
