@@ -74,7 +74,7 @@ def flight_case(args, sets, rows, info) -> callable:
     from flight_scene import flight_model, flight_start
     model = flight_model(FLIGHT_DECK, args.n, sets)
     q0, v0 = flight_start(model)
-    omega = float(model.description["rotor"]["params"][0])
+    omega = float(model.description["rotor"]["speed"]["omega"])
     period = 2.0 * np.pi / omega
     t_end = args.revolutions * period
     samples = args.revolutions * SAMPLES_PER_REV + 1

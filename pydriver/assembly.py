@@ -18,7 +18,7 @@ import numpy as np
 from pydriver.components import add_loads, support_motion_parameters, support_of
 from pydriver.core import CoreModel
 from pydriver.deckfile import Deck
-from pydriver.motions import blade_azimuth0, rot_y, rot_z, rotor, support_motion
+from pydriver.motions import blade_azimuth0, rot_y, rot_z, rotor, rotor_parameters, support_motion
 from pydriver.shape_resample import chain_lengths
 
 DEG = np.pi / 180.0
@@ -149,7 +149,7 @@ def build(deck: Deck) -> tuple[CoreModel, dict]:
                                    "rotation_vector": rotation_vector_springs(deck, b)})
     rot = rotor(deck)
     if rot is not None:
-        core.set_rotor(rot["profile"], rot["centre"], rot["params"], rot["hub"], rot["body_couples"])
+        core.set_rotor(rotor_parameters(rot))
     # Support B from its declaration in the registry; its position places the blade and moves A.
     support = support_of(deck)
     params = support.pack(deck, {"start_shape": core.shape(q0)}) if support is not None else {}
@@ -157,7 +157,7 @@ def build(deck: Deck) -> tuple[CoreModel, dict]:
     if rot is not None:
         rot["azimuth0"] = blade_azimuth0(deck, rot, b_position)
     motion_a = support_motion(deck, rot, "clamp_a", b_position)
-    if motion_a[0]:
+    if motion_a["motion.hinges"]:
         core.set_base(np.zeros(3), base_rotation, motion_a)
     if support is not None:
         params.update(support_motion_parameters(support, deck, rot, b_position))
@@ -166,7 +166,7 @@ def build(deck: Deck) -> tuple[CoreModel, dict]:
     # The pose of a support that holds the orientation too (clamp B), for pydriver.scene.
     clamp = (params["position"], params["rotation"].reshape(3, 3, order="F")) if "rotation" in params else None
     return core, {"bodies": b, "first_coord": first_coord, "stiffness": c, "damping": d, "rest": rest,
-                  "base_rotation": base_rotation, "base_moves": bool(motion_a[0]), "loads": loads,
+                  "base_rotation": base_rotation, "base_moves": bool(motion_a["motion.hinges"]), "loads": loads,
                   "support": support.kind if support is not None else None, "support_parameters": params,
                   "clamp": clamp, "rotor": rot, "q0": q0, "v0": v0}
 

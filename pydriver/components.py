@@ -10,10 +10,11 @@ one deck schema; a parameter fed straight by a key takes that key's value (and d
 by several keys, or by what assembly derived from them (the joint constants), says how.
 
 A new load: its Fortran file, its lines in ``loads/factory.f90`` and ``src_fortran/meson.build``,
-its :class:`Component` in :data:`LOADS`, and its keys in the schema (docs/architecture.md).  A new
+its :class:`Component` in :data:`LOADS`, and its keys in the schema (docs/architecture.md).  The
+integrator's settings are declared the same way (:data:`SOLVER`) and travel as a block too.  A new
 support the same with ``supports/factory.f90`` and :data:`SUPPORTS`; every support also gets
-``motion_ints`` and ``motion_reals``, the prescribed motion of its deck group
-(:func:`support_motion_parameters`).
+the prescribed motion of its deck group under ``motion.`` (:func:`support_motion_parameters`;
+the names are declared in :mod:`pydriver.motions`).
 """
 
 from __future__ import annotations
@@ -45,6 +46,7 @@ class Parameter:
     #: the value from the deck and what assembly built (``built``, below); None: the one key's value
     derive: Callable | None = None
     integer: bool = False         #: an integer array (a body index) rather than reals
+    word: bool = False            #: a word (a choice: the linear solver), sent as its character codes
     doc: str = ""
 
     @property
@@ -55,12 +57,14 @@ class Parameter:
             return lookup(group, name).default
         return None
 
-    def value(self, deck: Deck, built: dict) -> np.ndarray:
-        """The parameter's value for this deck, as a numpy array of its size."""
+    def value(self, deck: Deck, built: dict) -> np.ndarray | str:
+        """The parameter's value for this deck, as a numpy array of its size (a word: a str)."""
         raw = self.derive(deck, built) if self.derive is not None else deck[self.keys[0]]
         if raw is None:
             # A key without a default that the deck leaves out: required once its component is present.
             deck.fail(*self.keys[0].split("."), "is required here (no default)")
+        if self.word:
+            return str(raw)
         a = np.asarray(raw, dtype=np.int32 if self.integer else float).reshape(-1)
         size = SHAPES[self.shape](deck.n_bodies)
         if size is not None and a.size != size:
@@ -187,6 +191,33 @@ SUPPORTS: tuple[Component, ...] = (
 )
 
 
+#: The settings of a time integration (IDA: ``src_fortran/dae_integrator.f90``, settings_from_block
+#: reads them by these names), each the deck's &solver key of the same name.  ``built`` holds
+#: ``linear_solver``, the deck's choice with 'auto' resolved (pydriver.model.Model.linear_solver).
+SOLVER = Component(
+    "solver", context="&solver", present=lambda deck, built: True,
+    doc="tolerances, step limits, linear solver and kernels of a time integration (IDA)",
+    parameters=(
+        Parameter("rtol", "-", "scalar", ("solver.rtol",)),
+        Parameter("atol", "-", "scalar", ("solver.atol",), doc="on q [rad] and v [rad/s]"),
+        Parameter("atol_multiplier", "N, Nm", "scalar", ("solver.atol_multiplier",)),
+        Parameter("h_max", "s", "scalar", ("solver.h_max",), doc="0: no limit"),
+        Parameter("max_steps", "-", "scalar", ("solver.max_steps",), integer=True),
+        Parameter("linear_solver", "-", "scalar", ("solver.linear_solver",), _built("linear_solver"), word=True,
+                  doc="one of pydriver.schema.LINEAR_SOLVERS ('auto' resolved)"),
+        Parameter("jacobian", "-", "scalar", ("solver.jacobian",), word=True),
+        Parameter("jacobian_max_age", "-", "scalar", ("solver.jacobian_max_age",), integer=True),
+        Parameter("vector_kernels", "-", "scalar", ("solver.vector_kernels",), word=True)))
+
+
+def solver_settings(deck: Deck, linear_solver: str) -> dict:
+    """``{name: value}`` of :data:`SOLVER` for this deck (Python numbers and words), the
+    settings :meth:`pydriver.core.CoreModel.start` and the other integrations take; a caller may
+    change a value (``dict(settings, rtol=1e-10)``) before passing them on."""
+    values = SOLVER.pack(deck, {"linear_solver": linear_solver})
+    return {name: v if isinstance(v, str) else v.item() for name, v in values.items()}
+
+
 def support_of(deck: Deck) -> Component | None:
     """The support B the deck has (None: a free end); two at once are a DeckError."""
     present = [c for c in SUPPORTS if c.present(deck, {})]
@@ -197,10 +228,9 @@ def support_of(deck: Deck) -> Component | None:
 
 
 def support_motion_parameters(support: Component, deck: Deck, rot: dict | None, position) -> dict:
-    """``motion_ints``, ``motion_reals``: the prescribed motion of the support's group
-    (pydriver.motions.support_motion; rotorcable_motion_builder's layout)."""
-    ints, reals = support_motion(deck, rot, support.group, position)
-    return {"motion_ints": np.asarray(ints, np.int32), "motion_reals": np.asarray(reals, float)}
+    """The prescribed motion of the support's group, its block's entries under ``motion.``
+    (pydriver.motions.support_motion; read by rotorcable_motion_builder)."""
+    return support_motion(deck, rot, support.group, position)
 
 
 def add_loads(core, deck: Deck, built: dict) -> dict:

@@ -72,8 +72,6 @@ if os.environ.get("ROTORCABLE_FPE_TRAP") == "1":
         _probes = _FpeTrapped(_probes)
 
 JOINT_KINDS = {"zy": 1, "xy": 2, "xyz": 3}
-ROTOR_PROFILES = {"constant": 1, "runup": 2, "table": 3}
-LINEAR_SOLVERS = {"block": 1, "dense": 2, "chain": 3}
 
 
 def _text(x) -> str:
@@ -101,16 +99,6 @@ def _ints(a) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.int32).reshape(-1)
 
 
-def _settings_arrays(settings: dict) -> tuple[np.ndarray, np.ndarray]:
-    """The integrator settings as the core's flat arrays (rotorcable_dae_integrator,
-    settings_from_arrays): reals (rtol, atol, atol_multiplier, h_max), ints (max_steps, linear
-    solver, jacobian_max_age, compiled kernels, analytic Jacobian)."""
-    real = [settings["rtol"], settings["atol"], settings["atol_multiplier"], settings["h_max"]]
-    ints = [settings["max_steps"], LINEAR_SOLVERS[settings["linear_solver"]], settings["jacobian_max_age"],
-            int(settings["vector_kernels"] == "compiled"), int(settings.get("jacobian", "analytic") == "analytic")]
-    return _reals(real), _ints(ints)
-
-
 def _reals(a) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=float).reshape(-1)
 
@@ -120,11 +108,17 @@ def _parameter_arrays(params: dict) -> tuple:
     (src_fortran/parameter_block.f90), the one place it is built: the real arrays' names
     (blank-separated), sizes and values, then the same for the integer arrays.  A value is an
     integer array when its numpy kind is integer or bool (a body index, a hinge count), real
-    otherwise.  Names are single words: the block splits them at blanks."""
+    otherwise.  A word (a ``str`` value: a choice such as the linear solver ``'chain'``) is the
+    integer array of its ASCII codes, read back by ``get_word``.  Names are single words: the
+    block splits them at blanks."""
     real_names, real_sizes, reals, int_names, int_sizes, ints = [], [], [], [], [], []
     for name, value in params.items():
         if not name or " " in name or len(name) > 32:
             raise ValueError(f"parameter name {name!r}: one word of at most 32 characters")
+        if isinstance(value, str):
+            if not value.isascii() or not value.isprintable():
+                raise ValueError(f"parameter {name}: {value!r} is not a printable ASCII word")
+            value = np.frombuffer(value.encode("ascii"), np.uint8)
         a = np.asarray(value)
         if a.dtype.kind in "iub":
             int_names.append(name), int_sizes.append(a.size), ints.append(_ints(a))
@@ -169,9 +163,12 @@ class CoreModel:
         stat, key, msg = _api.rc_model_add_load(self.handle, kind, *_parameter_arrays(params))
         _raise(self.deck, stat, (deck_keys or {}).get(_text(key), key), msg, context)
 
-    def set_base(self, position, rotation, motion=((), ())):
-        stat, key, msg = _api.rc_model_set_base(self.handle, _reals(position), np.asfortranarray(rotation, float),
-                                                _ints(motion[0]), _reals(motion[1]))
+    def set_base(self, position, rotation, motion: dict | None = None):
+        """Support A: P_1 [m], R_0 (3, 3) and its prescribed motion (the block entries of
+        :func:`pydriver.motions.motion_parameters`; None: fixed)."""
+        params = {"position": position, "rotation": np.asarray(rotation, float).ravel(order="F"),
+                  **(motion or {"motion.hinges": np.int32(0)})}
+        stat, key, msg = _api.rc_model_set_base(self.handle, *_parameter_arrays(params))
         _raise(self.deck, stat, key, msg, "clamp A")
 
     def add_support(self, kind: str, params: dict, context: str = "", deck_keys: dict | None = None):
@@ -180,9 +177,9 @@ class CoreModel:
         stat, key, msg = _api.rc_model_add_support(self.handle, kind, *_parameter_arrays(params))
         _raise(self.deck, stat, (deck_keys or {}).get(_text(key), key), msg, context)
 
-    def set_rotor(self, profile: str, centre, params, hub: bool, body_couples: bool):
-        stat, key, msg = _api.rc_model_set_rotor(self.handle, ROTOR_PROFILES[profile], _reals(centre),
-                                                 _reals(params), int(hub), int(body_couples))
+    def set_rotor(self, params: dict):
+        """The rotor and the frame, its parameter block by name (:func:`pydriver.motions.rotor_parameters`)."""
+        stat, key, msg = _api.rc_model_set_rotor(self.handle, *_parameter_arrays(params))
         _raise(self.deck, stat, key, msg, "rotor")
 
     def finish(self):
@@ -281,9 +278,10 @@ class CoreModel:
         return {"basis": basis, "M": m_full, "M_r": m_r, "K_r": k_r, "D_r": d_r}
 
     def start(self, settings: dict, t0: float, q0, v0) -> "CoreSession":
-        """Start a time integration; the session's q0, v0 are the consistent start."""
-        real, ints = _settings_arrays(settings)
-        session, q, v, stat, key, msg = _api.rc_dynamic_start(self.handle, real, ints, float(t0),
+        """Start a time integration; the session's q0, v0 are the consistent start.  ``settings``
+        is ``{name: value}`` of pydriver.components.SOLVER (:meth:`pydriver.model.Model.solver_settings`),
+        sent as the core's 'solver' parameter block; so for the other integrations here."""
+        session, q, v, stat, key, msg = _api.rc_dynamic_start(self.handle, *_parameter_arrays(settings), float(t0),
                                                               _reals(q0), _reals(v0))
         s = CoreSession(self, int(session), q, v)
         if stat:
@@ -301,11 +299,10 @@ class CoreModel:
         independent coordinates x = (a, b), q = q0 + N a, v = v0 + N b + correction, and the
         solver statistics.
         """
-        real, ints = _settings_arrays(settings)
         t = _reals(t)
         nf = self.nq - self.nc
         q, v, qs, vs, basis, phi, st, stat, key, msg = _api.rc_monodromy(
-            self.handle, real, ints, float(t0), _reals(q0), _reals(v0), t, nf)
+            self.handle, *_parameter_arrays(settings), float(t0), _reals(q0), _reals(v0), t, nf)
         _raise(self.deck, stat, key, msg)
         stats = dict(zip(("steps", "residual_evals", "jacobian_evals", "error_test_failures",
                           "convergence_failures", "sensitivity_residual_evals"), (int(x) for x in st)))
@@ -323,7 +320,6 @@ class CoreModel:
         ``sv0``, the states ``q``, ``v`` (nq, nt) and the sensitivities ``sq``, ``sv``
         (nq, nt, np) at the increasing output times ``t`` > t0, and the solver statistics.
         """
-        real, ints = _settings_arrays(settings)
         t = _reals(t)
         n_par = len(points)
         n_pts = max(len(p[2]) for p in points)
@@ -335,7 +331,7 @@ class CoreModel:
                 handles[i, k] = 0 if m is None else m.handle
                 offsets[i, k], weights[i, k] = s, w
         q, v, qs, vs, sq, sv, sq_start, sv_start, st, stat, key, msg = _api.rc_parameter_sensitivity(
-            self.handle, real, ints, float(t0), _reals(q0), _reals(v0), handles, offsets, weights,
+            self.handle, *_parameter_arrays(settings), float(t0), _reals(q0), _reals(v0), handles, offsets, weights,
             _reals([p[0] for p in points]), _reals([p[1] for p in points]),
             np.asfortranarray(sq0, float), np.asfortranarray(sv0, float), t)
         _raise(self.deck, stat, key, msg)
@@ -442,9 +438,8 @@ class CoreModel:
         """One timed integration (1 IDA, 2 GSL rk8pd, 3 GSL msbdf): CM samples (n_samples, n, 3)
         at equally spaced times t0 ... t_end, the end state, statistics, CPU and wall time of
         the integration alone."""
-        real, ints = _settings_arrays(settings)
         (cm, q_end, v_end, st, cpu, wall, stat, msg) = _probes.rc_probe_integrate(
-            self.handle, int(method), real, ints, float(baumgarte_omega), float(t0), float(t_end),
+            self.handle, int(method), *_parameter_arrays(settings), float(baumgarte_omega), float(t0), float(t_end),
             _reals(q0), _reals(v0), int(n_samples), self.n_bodies)
         _raise(self.deck, stat, "", msg)
         return {"cm_samples": cm.transpose(2, 1, 0).copy(), "q_end": q_end, "v_end": v_end,

@@ -11,6 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from pydriver import assembly, deck_rules
+from pydriver.components import solver_settings
 from pydriver.deckfile import Deck, read_deck
 
 #: ``&solver linear_solver = 'auto'`` uses the O(n) chain solver from this many coordinates on.
@@ -97,9 +98,6 @@ class Model:
         return resolve_linear_solver(self.deck.values["solver"]["linear_solver"], self.nq)
 
     def solver_settings(self) -> dict:
-        """The &solver values the integrator needs ('auto' resolved: :meth:`linear_solver`)."""
-        s = self.deck.values["solver"]
-        out = {k: s[k] for k in ("rtol", "atol", "atol_multiplier", "h_max", "max_steps", "jacobian",
-                                 "jacobian_max_age", "vector_kernels")}
-        out["linear_solver"] = self.linear_solver()
-        return out
+        """The &solver values the integrator needs, by the names pydriver.components.SOLVER
+        declares ('auto' resolved: :meth:`linear_solver`)."""
+        return solver_settings(self.deck, self.linear_solver())

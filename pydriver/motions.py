@@ -1,7 +1,8 @@
-"""The rotor and the prescribed motions of the supports, from the deck to the core's flat
-description (src_fortran/motion/builder.f90): speed profile, frame, and for each support the
-hinges that move it (the rotor's own axis for a support carried round in the inertial frame;
-the blade's flap, lead-lag and pitch hinges for a support on the blade).
+"""The rotor and the prescribed motions of the supports, from the deck to the core's parameter
+blocks (src_fortran/motion/): speed profile, frame, and for each support the hinges that move
+it (the rotor's own axis for a support carried round in the inertial frame; the blade's flap,
+lead-lag and pitch hinges for a support on the blade).  The names the core reads are declared
+here once (:data:`ROTOR_PROFILES`, :data:`HINGE`, :data:`ANGLES`); nothing is packed by position.
 
 Conventions (docs/model.md, "Rotor and blade motion"): the rotor turns about the deck's z axis
 through its centre, counter-clockwise seen from above (Omega > 0), the hub frame coincides with
@@ -19,7 +20,62 @@ from pydriver.schema import lookup
 
 DEG = np.pi / 180.0
 RPM = 2.0 * np.pi / 60.0
-ANGLE_CONSTANT, ANGLE_FOURIER, ANGLE_TABLE, ANGLE_ROTOR = 0, 1, 2, 3
+
+#: The rotor's speed profiles and the parameters of each, by the names
+#: ``src_fortran/motion/rotor.f90`` (rotor_from_block) reads: name -> unit.  Every rotor block
+#: also has ``profile`` (the word), ``centre`` (3) [m], ``hub`` and ``body_couples`` (1/0; read
+#: by ``model_builder.f90``, build_rotor).
+ROTOR_PROFILES = {
+    "constant": {"omega": "rad/s"},
+    "runup": {"omega_start": "rad/s", "omega_end": "rad/s", "t_start": "s", "duration": "s"},
+    "table": {"t": "s", "omega": "rad/s"},
+}
+
+#: One hinge of a prescribed motion (``src_fortran/motion/builder.f90``), under
+#: ``motion.hinge<k>.``: name -> unit.  A motion also has ``motion.hinges``, their number.
+HINGE = {"axis": "-", "point": "m", "angle": "word, a kind of ANGLES"}
+
+#: The angle functions of a hinge and the parameters of each, by the names
+#: ``src_fortran/motion/angle_function.f90`` (angle_from_block) reads: name -> unit.
+ANGLES = {
+    "constant": {"value": "rad"},
+    "fourier": {"azimuth0": "rad", "extra_amplitude": "rad", "extra_frequency": "rad/s", "extra_phase": "rad",
+                "coefficients": "rad: a_0, c_1, s_1, c_2, s_2, ..."},
+    "table": {"t": "s", "theta": "rad"},
+    "rotor": {"offset": "rad"},
+}
+
+
+def _declared(table: dict, kind: str, values: dict, what: str) -> dict:
+    """``values`` as floats (arrays: float arrays), checked against the names ``table[kind]``
+    declares, in their declared order."""
+    if kind not in table or set(values) != set(table[kind]):
+        raise ValueError(f"{what} {kind!r}: parameters {sorted(values)}, declared {sorted(table.get(kind, ()))}")
+    return {name: float(values[name]) if np.ndim(values[name]) == 0 else np.asarray(values[name], float)
+            for name in table[kind]}
+
+
+def angle(kind: str, **values) -> dict:
+    """A hinge's angle function of ``kind`` (:data:`ANGLES`) with its parameters by name."""
+    return {"angle": kind, **_declared(ANGLES, kind, values, "angle")}
+
+
+def motion_parameters(hinges: list, prefix: str = "motion.") -> dict:
+    """The parameter block entries of a motion: ``hinges`` is a list of (axis, point, angle) with
+    an :func:`angle` each, outermost first; no hinges: a support that does not move."""
+    out = {prefix + "hinges": np.int32(len(hinges))}
+    for k, (axis, point, ang) in enumerate(hinges, start=1):
+        tag = f"{prefix}hinge{k}."
+        out[tag + "axis"] = np.asarray(axis, float)
+        out[tag + "point"] = np.asarray(point, float)
+        out.update({tag + name: value for name, value in ang.items()})
+    return out
+
+
+def rotor_parameters(rot: dict) -> dict:
+    """The rotor's parameter block (:func:`rotor`'s description) for the core."""
+    return {"profile": rot["profile"], "centre": np.asarray(rot["centre"], float), "hub": np.int32(rot["hub"]),
+            "body_couples": np.int32(rot["body_couples"]), **rot["speed"]}
 
 
 def rot_z(a: float) -> np.ndarray:
@@ -42,20 +98,26 @@ def rotor(deck: Deck) -> dict | None:
         rpm = deck["loads.rotor_rpm"] if deck.has("loads.rotor_rpm") else 0.0
         if rpm == 0.0:
             return None
-        return {"profile": "constant", "centre": legacy_centre, "params": [rpm * RPM], "hub": True,
+        speed = _declared(ROTOR_PROFILES, "constant", {"omega": rpm * RPM}, "rotor profile")
+        return {"profile": "constant", "centre": legacy_centre, "speed": speed, "params": [rpm * RPM], "hub": True,
                 "body_couples": True, "omega_max": rpm * RPM}
     r = deck.values["rotor"]
     centre = np.asarray(r["centre"], float) if deck.has("rotor.centre") else legacy_centre
     if r["profile"] == "constant":
-        params = [r["rpm"] * RPM]
-        omega_max = params[0]
+        speed = {"omega": r["rpm"] * RPM}
+        omega_max = speed["omega"]
     elif r["profile"] == "runup":
-        params = [r["rpm_start"] * RPM, r["rpm"] * RPM, r["runup_start"], r["runup_time"]]
-        omega_max = max(params[:2])
+        speed = {"omega_start": r["rpm_start"] * RPM, "omega_end": r["rpm"] * RPM, "t_start": r["runup_start"],
+                 "duration": r["runup_time"]}
+        omega_max = max(speed["omega_start"], speed["omega_end"])
     else:
-        params = list(r["table_t"]) + [x * RPM for x in r["table_rpm"]]
+        speed = {"t": list(r["table_t"]), "omega": [x * RPM for x in r["table_rpm"]]}
         omega_max = max(r["table_rpm"]) * RPM
-    return {"profile": r["profile"], "centre": centre, "params": params, "hub": r["frame"] == "hub",
+    speed = _declared(ROTOR_PROFILES, r["profile"], speed, "rotor profile")
+    # "params": the profile's values one after the other, for the readers of a stored description
+    # (Omega = params[0] of a constant profile).
+    params = [float(x) for name in ROTOR_PROFILES[r["profile"]] for x in np.atleast_1d(speed[name])]
+    return {"profile": r["profile"], "centre": centre, "speed": speed, "params": params, "hub": r["frame"] == "hub",
             "body_couples": bool(r["body_couples"]), "omega_max": omega_max}
 
 
@@ -83,15 +145,6 @@ def blade_azimuth0(deck: Deck, rot: dict, clamp_position) -> float:
     return float(np.mod(np.arctan2(u[1], u[0]) - np.pi, 2.0 * np.pi))
 
 
-def _hinges_flat(hinges: list) -> tuple[list, list]:
-    """(ints, reals) of a list of (axis, point, kind, params) in the builder's layout."""
-    ints, reals = [len(hinges)], []
-    for axis, point, kind, params in hinges:
-        ints += [kind, len(params)]
-        reals += list(np.asarray(axis, float)) + list(np.asarray(point, float)) + list(params)
-    return ints, reals
-
-
 def blade_hinges(deck: Deck, azimuth0: float) -> list:
     """The blade's flap, lead-lag and pitch hinges, outermost first (flap carries the others)."""
     b = deck.values["blade"]
@@ -104,25 +157,27 @@ def blade_hinges(deck: Deck, azimuth0: float) -> list:
         if b["motion"] == "table":
             values = b[f"table_{name}_deg"]
             values = np.zeros(len(b["table_t"])) if values is None else np.asarray(values, float)
-            out.append((axis, point, ANGLE_TABLE, list(b["table_t"]) + list(values * DEG)))
+            out.append((axis, point, angle("table", t=b["table_t"], theta=values * DEG)))
         else:
             extra = [0.0, 0.0, 0.0]
             if name == "lag":
                 extra = [b["lag_extra_deg"] * DEG, 2.0 * np.pi * b["lag_extra_hz"], b["lag_extra_phase_deg"] * DEG]
-            coefficients = list(np.asarray(b[f"{name}_deg"], float) * DEG)
-            out.append((axis, point, ANGLE_FOURIER, [azimuth0] + extra + coefficients))
+            out.append((axis, point, angle("fourier", azimuth0=azimuth0, extra_amplitude=extra[0],
+                                           extra_frequency=extra[1], extra_phase=extra[2],
+                                           coefficients=np.asarray(b[f"{name}_deg"], float) * DEG)))
     return out
 
 
-def support_motion(deck: Deck, rot: dict | None, which: str, clamp_position) -> tuple[list, list]:
-    """The hinges that move support A ('clamp_a') or B (its deck group), as (ints, reals): the
-    rotor's carrying round in the inertial frame, and the blade's hinges for a group whose
-    ``moves_with`` is 'blade' (a group without that key does not move with the blade)."""
+def support_motion(deck: Deck, rot: dict | None, which: str, clamp_position) -> dict:
+    """The hinges that move support A ('clamp_a') or B (its deck group), as the parameter block
+    entries of :func:`motion_parameters`: the rotor's carrying round in the inertial frame, and
+    the blade's hinges for a group whose ``moves_with`` is 'blade' (a group without that key
+    does not move with the blade)."""
     hinges = []
     if rot is not None and not rot["hub"]:
         # Inertial frame: the support is carried round by the rotor about its axis.
-        hinges.append(((0.0, 0.0, 1.0), rot["centre"], ANGLE_ROTOR, [0.0]))
+        hinges.append(((0.0, 0.0, 1.0), rot["centre"], angle("rotor", offset=0.0)))
     if lookup(which, "moves_with") is not None and deck[f"{which}.moves_with"] == "blade":
         azimuth0 = blade_azimuth0(deck, rot, clamp_position) if rot is not None else 0.0
         hinges += blade_hinges(deck, azimuth0)
-    return _hinges_flat(hinges) if hinges else ([], [])
+    return motion_parameters(hinges)

@@ -120,7 +120,7 @@ def _check_supports(m: Model) -> None:
         c = {s.kind: s for s in SUPPORTS}[kind]
         if kind not in REPRESENTED_SUPPORTS:
             _refuse(m, c.group, f"the support {kind!r} ({c.doc})")
-        if np.asarray(d["support_parameters"]["motion_ints"]).size:
+        if int(d["support_parameters"].get("motion.hinges", 0)):
             _refuse(m, c.group, f"the moving support {kind!r} (carried by the rotor or the blade)")
     if d["base_moves"]:
         _refuse(m, "clamp_a", "the moving support A (carried by the rotor or the blade)")

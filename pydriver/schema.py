@@ -23,6 +23,11 @@ from pydriver.design_measures import OBJECTIVES
 
 INF = math.inf
 
+#: The IDA linear solvers of the core, written here only: the core takes the deck's word
+#: (``src_fortran/dae_integrator.f90``, settings_from_block) and ``&solver linear_solver`` is one
+#: of them or ``'auto'`` (resolved by :func:`pydriver.model.resolve_linear_solver`).
+LINEAR_SOLVERS = ("chain", "block", "dense")
+
 
 @dataclass(frozen=True)
 class Key:
@@ -361,7 +366,7 @@ def _keys() -> list[Key]:
             doc="equilibrium by Newton, or by damped dynamic settling (thesis 5.3)"))
     add(Key("solver", "settle_tol", "real", unit="rad/s", default=1.0e-8, low=1.0e-16, high=1.0e3,
             doc="settled when max |qdot| < settle_tol"))
-    add(Key("solver", "linear_solver", "str", default="auto", choices=("auto", "chain", "block", "dense"),
+    add(Key("solver", "linear_solver", "str", default="auto", choices=("auto", *LINEAR_SOLVERS),
             doc="IDA linear solver: 'chain', an O(n) articulated-body solve of an approximate iteration "
                 "matrix (mass, joint springs and dampers, constraints; no Jacobian formed); 'block', "
                 "Schur-complement blocks of the full iteration matrix (O(n^3)); 'dense', SUNDIALS's "

@@ -8,7 +8,7 @@ module rotorcable_api
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error
-  use rotorcable_model, only: model_type, positions_at, constraint_residual
+  use rotorcable_model, only: model_type, constraint_residual
   use rotorcable_model_registry, only: register_model, lookup_model, release_model, register_session, &
                                        lookup_session, release_session, open_sessions
   use rotorcable_model_update, only: update_parameter, parameter_value
@@ -17,7 +17,7 @@ module rotorcable_api
                                       build_finish, thesis_to_coordinates
   use rotorcable_statics, only: static_settings, static_result, solve_static, static_system
   use rotorcable_modal, only: reduced_matrices
-  use rotorcable_dae_integrator, only: integrator_settings, settings_from_arrays, dae_session, session_start, &
+  use rotorcable_dae_integrator, only: integrator_settings, settings_from_flat, dae_session, session_start, &
                                        session_advance, consistent_start
   use rotorcable_monodromy, only: monodromy_run
   use rotorcable_parameter_sensitivity, only: difference_points, parameter_sensitivity_run
@@ -115,21 +115,28 @@ contains
     call report(error, stat, key, msg)
   end subroutine rc_model_add_load
 
-  !> Support A: reference pose and prescribed motion (rotorcable_motion_builder's layout).
-  subroutine rc_model_set_base(handle, position, rotation, ni, motion_ints, nr, motion_reals, stat, key, msg)
+  !> Support A: reference pose and prescribed motion, a parameter block sent flat as for
+  !> rc_model_add_load (rotorcable_model_builder, build_base).
+  subroutine rc_model_set_base(handle, real_names, nrn, real_sizes, nr, reals, int_names, nin, int_sizes, ni, ints, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
-    real(c_double), intent(in) :: position(3)     !< P_1 [m]
-    real(c_double), intent(in) :: rotation(3, 3)  !< R_0
-    integer(c_int), intent(in) :: ni, nr          !< motion description sizes
-    integer(c_int), intent(in) :: motion_ints(ni) !< motion integers
-    real(c_double), intent(in) :: motion_reals(nr)  !< motion reals
+    character(len=*), intent(in) :: real_names    !< names of the real arrays, blank-separated
+    integer(c_int), intent(in) :: nrn, nr         !< how many real arrays, real values
+    integer(c_int), intent(in) :: real_sizes(nrn) !< size of each real array
+    real(c_double), intent(in) :: reals(nr)       !< their values, one after the other
+    character(len=*), intent(in) :: int_names     !< names of the integer arrays
+    integer(c_int), intent(in) :: nin, ni         !< how many integer arrays, integer values
+    integer(c_int), intent(in) :: int_sizes(nin)  !< size of each integer array
+    integer(c_int), intent(in) :: ints(ni)        !< their values
     integer(c_int), intent(out) :: stat           !< status
     character(len=64), intent(out) :: key         !< input at fault
     character(len=1024), intent(out) :: msg       !< why
     type(model_type), pointer :: model
+    type(parameter_block) :: params
     type(error_type) :: error
     model => model_of(handle, error)
-    if (error%code == 0) call build_base(model, position, rotation, motion_ints, motion_reals, error)
+    if (error%code == 0) call block_from_flat('clamp A', real_names, real_sizes, reals, int_names, int_sizes, ints, &
+                                              params, error)
+    if (error%code == 0) call build_base(model, params, error)
     call report(error, stat, key, msg)
   end subroutine rc_model_set_base
 
@@ -160,22 +167,28 @@ contains
     call report(error, stat, key, msg)
   end subroutine rc_model_add_support
 
-  !> The rotor's speed profile and centre, and the frame of the equations.
-  subroutine rc_model_set_rotor(handle, kind, centre, np, params, hub, body_couples, stat, key, msg)
+  !> The rotor and the frame of the equations, a parameter block sent flat as for
+  !> rc_model_add_load (rotorcable_model_builder, build_rotor).
+  subroutine rc_model_set_rotor(handle, real_names, nrn, real_sizes, nr, reals, int_names, nin, int_sizes, ni, ints, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
-    integer(c_int), intent(in) :: kind            !< 1 constant, 2 run-up, 3 table
-    real(c_double), intent(in) :: centre(3)       !< rotor centre [m]
-    integer(c_int), intent(in) :: np              !< parameter count
-    real(c_double), intent(in) :: params(np)      !< profile parameters [rad/s, s]
-    integer(c_int), intent(in) :: hub             !< 1 = equations in the hub frame
-    integer(c_int), intent(in) :: body_couples    !< 1 = rotational inertia in the frame terms
+    character(len=*), intent(in) :: real_names    !< names of the real arrays, blank-separated
+    integer(c_int), intent(in) :: nrn, nr         !< how many real arrays, real values
+    integer(c_int), intent(in) :: real_sizes(nrn) !< size of each real array
+    real(c_double), intent(in) :: reals(nr)       !< their values, one after the other
+    character(len=*), intent(in) :: int_names     !< names of the integer arrays
+    integer(c_int), intent(in) :: nin, ni         !< how many integer arrays, integer values
+    integer(c_int), intent(in) :: int_sizes(nin)  !< size of each integer array
+    integer(c_int), intent(in) :: ints(ni)        !< their values
     integer(c_int), intent(out) :: stat           !< status
     character(len=64), intent(out) :: key         !< input at fault
     character(len=1024), intent(out) :: msg       !< why
     type(model_type), pointer :: model
+    type(parameter_block) :: params
     type(error_type) :: error
     model => model_of(handle, error)
-    if (error%code == 0) call build_rotor(model, kind, centre, params, hub /= 0, body_couples /= 0, error)
+    if (error%code == 0) call block_from_flat('rotor', real_names, real_sizes, reals, int_names, int_sizes, ints, &
+                                              params, error)
+    if (error%code == 0) call build_rotor(model, params, error)
     call report(error, stat, key, msg)
   end subroutine rc_model_set_rotor
 
@@ -302,9 +315,7 @@ contains
     model => model_of(handle, error)
     if (error%code == 0) call check_sizes(model, nq, nb, 'rc_shape', error)
     if (error%code == 0) then
-      call positions_at(model, t, q)
-      call shape_of(model, q, angles, cm, joints)
-      last_rotation = model%st%rot(:, :, nb)
+      call shape_of(model, t, q, angles, cm, joints, last_rotation)
     end if
     call report(error, stat, key, msg)
   end subroutine rc_shape
@@ -393,12 +404,18 @@ contains
   end subroutine rc_modal_matrices
 
   !> Start a time integration from (q0, v0) at t0 (made consistent: returned in q, v).
-  subroutine rc_dynamic_start(handle, settings_real, settings_int, t0, nq, q0, v0, session, q, v, stat, key, msg)
+  subroutine rc_dynamic_start(handle, real_names, nrn, real_sizes, nr, reals, int_names, nin, int_sizes, ni, ints, &
+                              t0, nq, q0, v0, session, q, v, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
-    real(c_double), intent(in) :: settings_real(4)  !< rtol, atol, atol_multiplier, h_max
-    integer(c_int), intent(in) :: settings_int(5)   !< max_steps, linear solver (1 block, 2 dense, 3 chain),
-                                                    !< jacobian_max_age, compiled vector kernels (1/0),
-                                                    !< analytic Jacobian (1/0)
+    character(len=*), intent(in) :: real_names    !< solver settings (pydriver/components.py SOLVER): names of
+                                                  !< the real arrays, blank-separated
+    integer(c_int), intent(in) :: nrn, nr         !< how many real arrays, real values
+    integer(c_int), intent(in) :: real_sizes(nrn) !< size of each real array
+    real(c_double), intent(in) :: reals(nr)       !< their values, one after the other
+    character(len=*), intent(in) :: int_names     !< names of the integer arrays (words as character codes)
+    integer(c_int), intent(in) :: nin, ni         !< how many integer arrays, integer values
+    integer(c_int), intent(in) :: int_sizes(nin)  !< size of each integer array
+    integer(c_int), intent(in) :: ints(ni)        !< their values
     real(c_double), intent(in) :: t0              !< start time [s]
     integer(c_int), intent(in) :: nq              !< coordinates
     real(c_double), intent(in) :: q0(nq), v0(nq)  !< start state
@@ -415,8 +432,8 @@ contains
     session = 0
     q = q0; v = v0
     model => model_of(handle, error)
+    if (error%code == 0) call settings_from_flat(real_names, real_sizes, reals, int_names, int_sizes, ints, settings, error)
     if (error%code == 0) then
-      settings = settings_from_arrays(settings_real, settings_int)
       call register_session(handle, s, h)
       session = h
       call session_start(s, model, settings, t0, q, v, error)
@@ -497,10 +514,10 @@ contains
                            'or a non-finite state)')
           exit
         end if
-        call joint_loads(model, axial(:, k), shear(:, k), bending(:, k), torsion(:, k), bend_angle(:, k), &
-                         moment_xy(:, :, k), bend_xy(:, :, k))
-        call shape_of(model, q(:, k), angles(:, :, k), cm(:, :, k), joints(:, :, k))
-        call support_motion(model, supports(:, k))
+        call joint_loads(model, t(k), q(:, k), v(:, k), axial(:, k), shear(:, k), bending(:, k), torsion(:, k), &
+                         bend_angle(:, k), moment_xy(:, :, k), bend_xy(:, :, k))
+        call shape_of(model, t(k), q(:, k), angles(:, :, k), cm(:, :, k), joints(:, :, k))
+        call support_motion(model, t(k), supports(:, k))
         psi(k) = model%rs%psi
       end do
     end if
@@ -510,11 +527,19 @@ contains
   !> One period from (q0, v0) at t0 with the forward sensitivities of the independent
   !> coordinates x = (a, b) (rotorcable_monodromy): states at the output times t (the last one
   !> ends the period), the consistent start, the null-space basis N and the monodromy matrix.
-  subroutine rc_monodromy(handle, settings_real, settings_int, t0, nq, q0, v0, nt, t, nf, q, v, q_start, v_start, &
-                          basis, phi, stats, stat, key, msg)
+  subroutine rc_monodromy(handle, real_names, nrn, real_sizes, nr, reals, int_names, nin, int_sizes, ni, ints, &
+                          t0, nq, q0, v0, nt, t, nf, q, v, &
+                          q_start, v_start, basis, phi, stats, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
-    real(c_double), intent(in) :: settings_real(4)  !< rtol, atol, atol_multiplier, h_max
-    integer(c_int), intent(in) :: settings_int(5)   !< as rc_dynamic_start
+    character(len=*), intent(in) :: real_names    !< solver settings (pydriver/components.py SOLVER): names of
+                                                  !< the real arrays, blank-separated
+    integer(c_int), intent(in) :: nrn, nr         !< how many real arrays, real values
+    integer(c_int), intent(in) :: real_sizes(nrn) !< size of each real array
+    real(c_double), intent(in) :: reals(nr)       !< their values, one after the other
+    character(len=*), intent(in) :: int_names     !< names of the integer arrays (words as character codes)
+    integer(c_int), intent(in) :: nin, ni         !< how many integer arrays, integer values
+    integer(c_int), intent(in) :: int_sizes(nin)  !< size of each integer array
+    integer(c_int), intent(in) :: ints(ni)        !< their values
     real(c_double), intent(in) :: t0              !< start time [s]
     integer(c_int), intent(in) :: nq, nt, nf      !< coordinates, output times, nq - nc
     real(c_double), intent(in) :: q0(nq), v0(nq)  !< start state
@@ -531,6 +556,7 @@ contains
     type(model_type), pointer :: model
     type(error_type) :: error
     type(solver_stats) :: st
+    type(integrator_settings) :: settings
     integer :: n_sens
     q = 0.0_dp; v = 0.0_dp; basis = 0.0_dp; phi = 0.0_dp; stats = 0
     q_start = q0; v_start = v0
@@ -538,9 +564,9 @@ contains
     if (error%code == 0) then
       if (nf /= model%nq - model%nc .or. nq /= model%nq) call fatal_error(error, 'rc_monodromy: wrong sizes')
     end if
+    if (error%code == 0) call settings_from_flat(real_names, real_sizes, reals, int_names, int_sizes, ints, settings, error)
     if (error%code == 0) then
-      call monodromy_run(model, settings_from_arrays(settings_real, settings_int), t0, q_start, v_start, t, q, v, &
-                         basis, phi, st, n_sens, error)
+      call monodromy_run(model, settings, t0, q_start, v_start, t, q, v, basis, phi, st, n_sens, error)
       stats = [st%steps, st%residual_evals, st%jacobian_evals, st%error_test_failures, st%convergence_failures, &
                n_sens]
     end if
@@ -598,12 +624,20 @@ contains
   !> sensitivities of np design parameters (rotorcable_parameter_sensitivity), starting from the
   !> state sensitivities (sq0, sv0).  The explicit partial dF/dp_k is sum_i weights(i, k)
   !> F(model handles(i, k)) / h(k) (handle 0: this model).
-  subroutine rc_parameter_sensitivity(handle, settings_real, settings_int, t0, nq, q0, v0, np, npts, handles, &
-                                      offsets, weights, h, pbar, sq0, sv0, nt, t, q, v, q_start, v_start, sq, sv, &
-                                      sq_start, sv_start, stats, stat, key, msg)
+  subroutine rc_parameter_sensitivity(handle, real_names, nrn, real_sizes, nr, reals, int_names, nin, int_sizes, &
+                                      ni, ints, t0, nq, q0, v0, &
+                                      np, npts, handles, offsets, weights, h, pbar, sq0, sv0, nt, t, q, v, &
+                                      q_start, v_start, sq, sv, sq_start, sv_start, stats, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
-    real(c_double), intent(in) :: settings_real(4)  !< rtol, atol, atol_multiplier, h_max
-    integer(c_int), intent(in) :: settings_int(5)   !< as rc_dynamic_start
+    character(len=*), intent(in) :: real_names    !< solver settings (pydriver/components.py SOLVER): names of
+                                                  !< the real arrays, blank-separated
+    integer(c_int), intent(in) :: nrn, nr         !< how many real arrays, real values
+    integer(c_int), intent(in) :: real_sizes(nrn) !< size of each real array
+    real(c_double), intent(in) :: reals(nr)       !< their values, one after the other
+    character(len=*), intent(in) :: int_names     !< names of the integer arrays (words as character codes)
+    integer(c_int), intent(in) :: nin, ni         !< how many integer arrays, integer values
+    integer(c_int), intent(in) :: int_sizes(nin)  !< size of each integer array
+    integer(c_int), intent(in) :: ints(ni)        !< their values
     real(c_double), intent(in) :: t0              !< start time [s]
     integer(c_int), intent(in) :: nq, np, npts, nt  !< coordinates, parameters, difference points, output times
     real(c_double), intent(in) :: q0(nq), v0(nq)  !< start state
@@ -626,6 +660,7 @@ contains
     type(difference_points), target :: points
     type(error_type) :: error
     type(solver_stats) :: st
+    type(integrator_settings) :: settings
     integer :: n_sens, i, k
     q = 0.0_dp; v = 0.0_dp; sq = 0.0_dp; sv = 0.0_dp; stats = 0
     q_start = q0; v_start = v0; sq_start = sq0; sv_start = sv0
@@ -650,8 +685,9 @@ contains
         if (error%code /= 0) exit
       end do
     end if
+    if (error%code == 0) call settings_from_flat(real_names, real_sizes, reals, int_names, int_sizes, ints, settings, error)
     if (error%code == 0) then
-      call parameter_sensitivity_run(model, points, pbar, settings_from_arrays(settings_real, settings_int), t0, &
+      call parameter_sensitivity_run(model, points, pbar, settings, t0, &
                                      q_start, v_start, sq0, sv0, t, q, v, sq, sv, st, n_sens, error, sq_start, sv_start)
       stats = [st%steps, st%residual_evals, st%jacobian_evals, st%error_test_failures, st%convergence_failures, &
                n_sens]

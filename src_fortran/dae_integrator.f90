@@ -10,6 +10,7 @@ module rotorcable_dae_integrator
                                          c_loc, c_funloc, c_f_pointer, c_null_ptr, c_associated, c_char
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error, sundials_flag_error
+  use rotorcable_parameter_block, only: parameter_block, block_from_flat, get_real, get_int, get_word
   use rotorcable_model, only: model_type, support_b_key, solve_accelerations, switch_times
   use rotorcable_projection, only: project_positions, project_velocities, constraint_rank_margin, &
                                    rank_loss_message, RANK_TOL
@@ -21,7 +22,8 @@ module rotorcable_dae_integrator
   use rotorcable_chain_linear_solver, only: ggl_chain_solver, chain_solver_create, chain_solver_destroy
   implicit none
   private
-  public :: integrator_settings, settings_from_arrays, solver_stats, consistent_start, dae_session, session_start, &
+  public :: integrator_settings, settings_from_block, settings_from_flat, solver_stats, consistent_start, dae_session, &
+            session_start, &
             session_advance, session_end, integrate, session_step_onto_switch, session_restart, &
             LINEAR_SOLVER_BLOCK, LINEAR_SOLVER_DENSE, LINEAR_SOLVER_CHAIN
 
@@ -104,19 +106,66 @@ contains
                                     '(dependent constraints, zero mass or a non-finite state)')
   end subroutine consistent_start
 
-  !> Settings from the flat arrays of the f2py boundary: reals (rtol, atol, atol_multiplier,
-  !> h_max), ints (max_steps, linear solver, jacobian_max_age, compiled kernels 1/0, analytic
-  !> Jacobian 1/0).
-  pure function settings_from_arrays(reals, ints) result(settings)
-    real(dp), intent(in) :: reals(4)          !< real settings
-    integer, intent(in) :: ints(5)            !< integer settings
-    type(integrator_settings) :: settings
-    settings%rtol = reals(1); settings%atol = reals(2)
-    settings%atol_multiplier = reals(3); settings%h_max = reals(4)
-    settings%max_steps = ints(1); settings%linear_solver = ints(2)
-    settings%jacobian_max_age = ints(3); settings%compiled_vector_kernels = ints(4) /= 0
-    settings%analytic_jacobian = ints(5) /= 0
-  end function settings_from_arrays
+  !> Settings from their parameter block (pydriver/components.py, SOLVER, declares the names;
+  !> the deck's &solver keys).  The linear solver, the Jacobian and the vector kernels come as
+  !> words, the deck's own choices; a word this core does not know is an error naming its key.
+  subroutine settings_from_block(block, settings, error)
+    type(parameter_block), intent(in) :: block        !< the 'solver' block
+    type(integrator_settings), intent(out) :: settings  !< the settings
+    type(error_type), intent(inout) :: error          !< status: a missing name, an unknown word
+    character(len=:), allocatable :: word
+    call get_real(block, 'rtol', settings%rtol, error)
+    call get_real(block, 'atol', settings%atol, error)
+    call get_real(block, 'atol_multiplier', settings%atol_multiplier, error)
+    call get_real(block, 'h_max', settings%h_max, error)
+    call get_int(block, 'max_steps', settings%max_steps, error)
+    call get_int(block, 'jacobian_max_age', settings%jacobian_max_age, error)
+    call get_word(block, 'linear_solver', word, error)
+    if (error%code /= 0) return
+    ! The schema's choices but 'auto' (pydriver/schema.py LINEAR_SOLVERS; pydriver.model resolves
+    ! 'auto'); tests/test_components.py checks that every one of them is known here.
+    select case (word)
+    case ('block')
+      settings%linear_solver = LINEAR_SOLVER_BLOCK
+    case ('dense')
+      settings%linear_solver = LINEAR_SOLVER_DENSE
+    case ('chain')
+      settings%linear_solver = LINEAR_SOLVER_CHAIN
+    case default
+      call fatal_error(error, 'linear solver '''//word//''' is not one of this core''s', key='solver.linear_solver')
+    end select
+    call get_word(block, 'jacobian', word, error)
+    if (error%code /= 0) return
+    select case (word)
+    case ('analytic', 'finite_difference')
+      settings%analytic_jacobian = word == 'analytic'
+    case default
+      call fatal_error(error, 'physics Jacobian '''//word//''' is not one of this core''s', key='solver.jacobian')
+    end select
+    call get_word(block, 'vector_kernels', word, error)
+    if (error%code /= 0) return
+    select case (word)
+    case ('compiled', 'sundials')
+      settings%compiled_vector_kernels = word == 'compiled'
+    case default
+      call fatal_error(error, 'vector kernels '''//word//''' are not one of this core''s', key='solver.vector_kernels')
+    end select
+  end subroutine settings_from_block
+
+  !> Settings from the flat layout of their block at the f2py boundary (api.f90, probes.f90).
+  subroutine settings_from_flat(real_names, real_sizes, reals, int_names, int_sizes, ints, settings, error)
+    character(len=*), intent(in) :: real_names    !< names of the real arrays, blank-separated
+    integer, intent(in) :: real_sizes(:)          !< size of each real array
+    real(dp), intent(in) :: reals(:)              !< their values
+    character(len=*), intent(in) :: int_names     !< names of the integer arrays
+    integer, intent(in) :: int_sizes(:)           !< size of each integer array
+    integer, intent(in) :: ints(:)                !< their values
+    type(integrator_settings), intent(out) :: settings  !< the settings
+    type(error_type), intent(inout) :: error      !< status
+    type(parameter_block) :: block
+    call block_from_flat('solver', real_names, real_sizes, reals, int_names, int_sizes, ints, block, error)
+    if (error%code == 0) call settings_from_block(block, settings, error)
+  end subroutine settings_from_flat
 
   !> Set up IDA for the model from (q0, v0) at t0 (made consistent here).  On return
   !> q0, v0 hold the consistent start.

@@ -61,7 +61,9 @@ contains
   end function ggl_residual
 
   !> The GGL residual on plain arrays, y = (q, v, lambda, mu).  One kinematic pass serves
-  !> the inverse dynamics, g and G (the frames of q are still current after eom_residual).
+  !> the inverse dynamics, g and G: the constraint rows read the frames and velocities that
+  !> eom_residual has just filled in (the same call, not an order rule across routines; the
+  !> residual runs ~10^4 times per run, and a check of the workspace record here cost 7 %).
   subroutine ggl_residual_dense(model, t, y, yd, r)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t                 !< time [s]
@@ -72,8 +74,12 @@ contains
     r(1:nq) = yd(1:nq) - y(nq + 1:2*nq)
     call eom_residual(model, t, y(1:nq), y(nq + 1:2*nq), yd(nq + 1:2*nq), y(2*nq + 1:2*nq + nc), &
                       r(nq + 1:2*nq))
-    if (nc > 0) call constraint_rows(model, y(2*nq + nc + 1:n), r(1:nq), r(2*nq + 1:2*nq + nc), &
-                                     r(2*nq + nc + 1:n))
+    if (nc == 0) return
+    ! G^T mu added to the q rows, g(q, t), and G v + g_t from the tip velocity and end rotation
+    ! rate the recursion already has, so G itself is never formed here.
+    call model%support_b%residual(model%chain, model%st, r(2*nq + 1:2*nq + nc))
+    call model%support_b%velocity(model%chain, model%st, model%fs, r(2*nq + nc + 1:n))
+    call model%support_b%add_jacobian_transpose_times(model%chain, model%st, y(2*nq + nc + 1:n), r(1:nq))
   end subroutine ggl_residual_dense
 
   !> Iteration matrix J = dF/dy + cj dF/dy' of the GGL residual, assembled from its
@@ -140,12 +146,13 @@ contains
     end do
   end subroutine physics_jacobian_analytic
 
-  !> First-order change dr of the GGL residual for the change (dy, dyd) of (y, y'), O(n), at the
-  !> state of the last ggl_residual_dense(model, t, y, yd) (its kinematics, loads and wrenches
-  !> are reused).  dy and dyd must vanish on the joints before body `first` (1: any direction).
+  !> First-order change dr of the GGL residual for the change (dy, dyd) of (y, y'), O(n), about
+  !> (t, y, y') (eom_residual_tangent evaluates the base pass unless the workspace holds it, so a
+  !> Jacobian's columns share one).  dy and dyd must vanish on the joints before body `first`
+  !> (1: any direction).
   !> With dyd = cj dy this is the iteration matrix times dy.
   subroutine ggl_residual_tangent(model, t, y, yd, dy, dyd, first, dr)
-    type(model_type), intent(inout) :: model  !< model, state of (t, y, yd) current
+    type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t                 !< time [s]
     real(dp), intent(in) :: y(:), yd(:)       !< unknowns and their derivatives
     real(dp), intent(in) :: dy(:), dyd(:)     !< their change
@@ -247,18 +254,5 @@ contains
     if (associated(ud%block)) ud%block%cj = cj
     ggl_jacobian = 0
   end function ggl_jacobian
-
-  !> Constraint parts of the GGL residual at the current frames and velocities (left by
-  !> eom_residual): G^T mu added to the q rows, g(q, t), and G v + g_t from the tip velocity
-  !> and end rotation rate the recursion already has, so G itself is never formed here.
-  subroutine constraint_rows(model, mu, r_q, r_g, r_gv)
-    type(model_type), intent(inout) :: model
-    real(dp), intent(in) :: mu(:)
-    real(dp), intent(inout) :: r_q(:)
-    real(dp), intent(out) :: r_g(:), r_gv(:)
-    call model%support_b%residual(model%chain, model%st, r_g)
-    call model%support_b%velocity(model%chain, model%st, model%fs, r_gv)
-    call model%support_b%add_jacobian_transpose_times(model%chain, model%st, mu, r_q)
-  end subroutine constraint_rows
 
 end module rotorcable_ggl_residual

@@ -5,6 +5,15 @@
 !> Every evaluation at a time t first prepares the model for t (model_prepare): rotor state,
 !> frame motion, base pose and the seed of the forward recursion, the far support's pose.
 !> Then one kinematic pass, the loads and one Newton-Euler backward pass give the residual.
+!>
+!> The workspace (frames, motion and joint wrenches in model%st, the applied forces) is shared
+!> by every evaluation, and model%ws records which state it holds (issue 23 item 2: no routine
+!> relies on a caller having evaluated "the same state" before it).  A routine that reads the
+!> workspace names the state it needs, (t, q), (t, q, v) or (t, q, v, vdot, lambda), and
+!> evaluates it only when the record says the workspace holds another: eom_residual skips the
+!> positions of a q whose frames are there, eom_residual_tangent starts from its own base
+!> point, and the constraint rows, energies, joint loads and shapes each ask for theirs.  The
+!> record costs a copy of the state per evaluation and a comparison where it is read.
 module rotorcable_model
   use rotorcable_kinds, only: dp
   use rotorcable_chain, only: chain_type
@@ -26,8 +35,22 @@ module rotorcable_model
   public :: model_type, model_init, model_prepare, model_free, eom_residual, eom_residual_tangent, &
             generalized_forces, mass_matrix, &
             constraint_residual, constraint_jacobian, constraint_bias, constraint_velocity, &
-            solve_accelerations, positions_at, kinetic_energy, stored_energy, total_energy, &
-            switch_times, joint_diagonal, all_conservative
+            solve_accelerations, positions_at, total_energy, &
+            switch_times, joint_diagonal, all_conservative, model_stale, state_motion, state_energies, &
+            workspace_holds, HOLDS_FRAMES, HOLDS_MOTION, HOLDS_EOM
+
+  !> What the workspace holds, in increasing order: nothing; the frames (positions) of (t, q);
+  !> also the velocities of v (accelerations of some vdot); also the forces, accelerations and
+  !> joint wrenches of eom_residual at (t, q, v, vdot, lambda).
+  integer, parameter :: HOLDS_NOTHING = 0, HOLDS_FRAMES = 1, HOLDS_MOTION = 2, HOLDS_EOM = 3
+
+  !> The state the workspace was last filled for (written by every routine that fills it).
+  type :: workspace_record
+    integer :: holds = HOLDS_NOTHING
+    logical :: solved = .false.               !< vdot, lambda are eq. 3.55's at (t, q, v) (sampling)
+    real(dp) :: t = 0.0_dp
+    real(dp), allocatable :: q(:), v(:), vdot(:), lambda(:)
+  end type workspace_record
 
   !> Everything a run needs to evaluate the equations of motion; the state is workspace.
   type :: model_type
@@ -51,6 +74,7 @@ module rotorcable_model
     real(dp) :: base_omega(3) = 0.0_dp        !< angular velocity of the base relative to the frame
     ! Workspace:
     type(chain_state) :: st                   !< kinematic state
+    type(workspace_record) :: ws              !< which state st and the forces hold
     real(dp), allocatable :: force(:, :)      !< (3,n) applied forces at the CMs
     real(dp), allocatable :: moment(:, :)     !< (3,n) applied moments
     real(dp), allocatable :: tau(:)           !< (nq) applied generalized forces
@@ -87,6 +111,9 @@ contains
     allocate (model%force(3, model%chain%n_bodies), model%moment(3, model%chain%n_bodies), model%tau(model%nq))
     allocate (model%dforce(3, model%chain%n_bodies), model%dmoment(3, model%chain%n_bodies), model%dtau(model%nq))
     allocate (model%zero_q(model%nq), model%zero_c(max(model%nc, 1)))
+    model%ws = workspace_record()
+    allocate (model%ws%q(model%nq), model%ws%v(model%nq), model%ws%vdot(model%nq), model%ws%lambda(model%nc))
+    model%ws%q = 0.0_dp; model%ws%v = 0.0_dp; model%ws%vdot = 0.0_dp; model%ws%lambda = 0.0_dp
     model%zero_q = 0.0_dp
     model%zero_c = 0.0_dp
     model%prepared = .false.
@@ -114,34 +141,117 @@ contains
     model%t_prepared = t
   end subroutine model_prepare
 
-  !> Frames, joint points and CMs of q at time t (in model%st).
+  !> After a parameter changed (rotorcable_model_update): nothing prepared for time t and
+  !> nothing in the workspace is current any more.
+  subroutine model_stale(model)
+    type(model_type), intent(inout) :: model  !< model
+    model%prepared = .false.
+    model%ws%holds = HOLDS_NOTHING
+    model%ws%solved = .false.
+  end subroutine model_stale
+
+  !> Whether the workspace holds at least `level` of the state given (frames: t, q; motion:
+  !> also v; eom: also vdot, lambda).  Equal means the same bits (a -0 is not a +0).
+  logical function workspace_holds(model, level, t, q, v, vdot, lambda) result(yes)
+    type(model_type), intent(in) :: model     !< model
+    integer, intent(in) :: level              !< HOLDS_FRAMES, HOLDS_MOTION or HOLDS_EOM
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: q(:)              !< coordinates
+    real(dp), intent(in), optional :: v(:), vdot(:), lambda(:)  !< rates, accelerations, multipliers (nc)
+    yes = model%ws%holds >= level .and. model%prepared .and. same_bits(t, model%ws%t) &
+          .and. same_bits(t, model%t_prepared)
+    if (yes) yes = same(q, model%ws%q)
+    if (yes .and. present(v)) yes = same(v, model%ws%v)
+    if (yes .and. present(vdot)) yes = same(vdot, model%ws%vdot)
+    if (yes .and. present(lambda)) yes = same(lambda(1:model%nc), model%ws%lambda)
+  end function workspace_holds
+
+  !> Frames, joint points and CMs of q at time t (in model%st); nothing is evaluated when the
+  !> workspace holds them already.
   subroutine positions_at(model, t, q)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t                 !< time [s]
     real(dp), intent(in) :: q(:)              !< coordinates [rad]
     call model_prepare(model, t)
+    if (workspace_holds(model, HOLDS_FRAMES, t, q)) return
     call chain_positions(model%chain, model%base_rot, model%base_pos, q, model%st)
+    call record(model, HOLDS_FRAMES, t, q)
   end subroutine positions_at
+
+  !> Frames of q and velocities of v at time t in model%st (accelerations of vdot = 0 where they
+  !> are evaluated here): what the constraint rows and the energies read.
+  subroutine state_motion(model, t, q, v)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: q(:), v(:)        !< coordinates and rates
+    if (workspace_holds(model, HOLDS_MOTION, t, q, v)) return
+    call positions_at(model, t, q)
+    call chain_motion(model%chain, model%seed, v, model%zero_q, model%st)
+    call record(model, HOLDS_MOTION, t, q, v, model%zero_q)
+  end subroutine state_motion
+
+  !> Kinetic energy relative to the model frame and potential energy at (q, v, t).
+  subroutine state_energies(model, t, q, v, kinetic, potential)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: q(:), v(:)        !< coordinates and rates
+    real(dp), intent(out) :: kinetic          !< kinetic energy [J]
+    real(dp), intent(out) :: potential        !< potential energy [J]
+    call state_motion(model, t, q, v)
+    kinetic = kinetic_energy(model)
+    potential = stored_energy(model, q)
+  end subroutine state_energies
+
+  !> Note what the workspace now holds (the state copied; a lower level forgets the rest).
+  subroutine record(model, level, t, q, v, vdot, lambda)
+    type(model_type), intent(inout) :: model
+    integer, intent(in) :: level
+    real(dp), intent(in) :: t
+    real(dp), intent(in) :: q(:)
+    real(dp), intent(in), optional :: v(:), vdot(:), lambda(:)
+    model%ws%holds = level
+    model%ws%solved = .false.
+    model%ws%t = t
+    model%ws%q(:) = q                       ! (:): no reallocation check, the sizes are the model's
+    if (present(v)) model%ws%v(:) = v
+    if (present(vdot)) model%ws%vdot(:) = vdot
+    if (present(lambda)) model%ws%lambda(:) = lambda(1:model%nc)
+  end subroutine record
+
+  !> a and b hold the same bits (NaN never matches; -0 and +0 differ).
+  pure logical function same(a, b)
+    real(dp), intent(in) :: a(:), b(:)
+    integer :: i
+    same = size(a) == size(b)
+    if (.not. same) return
+    do i = 1, size(a)
+      if (.not. same_bits(a(i), b(i))) then
+        same = .false.
+        return
+      end if
+    end do
+  end function same
+
+  pure logical function same_bits(a, b)
+    real(dp), intent(in) :: a, b
+    same_bits = a == b .and. sign(1.0_dp, a) == sign(1.0_dp, b)
+  end function same_bits
 
   !> Equation-of-motion residual  M vdot - k - G^T lambda  by one inverse-dynamics pass,
   !> O(n), M never formed.  Optionally returns the support wrenches at A and B; the wrench
-  !> of every parent on its child is left in model%st (joint_force, joint_moment).
-  subroutine eom_residual(model, t, q, v, vdot, lambda, res, wrenches, frames_current)
+  !> of every parent on its child is left in model%st (joint_force, joint_moment), and the
+  !> workspace record says so.  The positions are reused when the workspace holds q's frames.
+  subroutine eom_residual(model, t, q, v, vdot, lambda, res, wrenches)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t                 !< time [s]
     real(dp), intent(in) :: q(:), v(:), vdot(:)  !< coordinates, rates, accelerations
     real(dp), intent(in) :: lambda(:)         !< multipliers (size nc)
     real(dp), intent(out) :: res(:)           !< residual (size nq) [Nm]
     real(dp), intent(out), optional :: wrenches(12)  !< F_A, M_A, F_B, M_B (support on chain)
-    logical, intent(in), optional :: frames_current  !< model%st already holds the frames of q at t
     real(dp) :: f_b(3), m_b(3), f_a(3), m_a(3)
-    logical :: skip_positions
     integer :: i
 
-    skip_positions = .false.
-    if (present(frames_current)) skip_positions = frames_current
-    call model_prepare(model, t)
-    if (.not. skip_positions) call chain_positions(model%chain, model%base_rot, model%base_pos, q, model%st)
+    call positions_at(model, t, q)
     call chain_motion(model%chain, model%seed, v, vdot, model%st)
     model%force = 0.0_dp
     model%moment = 0.0_dp
@@ -161,18 +271,19 @@ contains
     end if
     res = res - model%tau
     if (present(wrenches)) wrenches = [f_a, m_a, f_b, m_b]
+    call record(model, HOLDS_EOM, t, q, v, vdot, lambda)
   end subroutine eom_residual
 
   !> First-order change of eom_residual's residual for the change (dq, dv, dvdot, dlambda) of its
   !> arguments, O(n): the tangent of the kinematics, of every load, of clamp B's wrench and of
-  !> the Newton-Euler pass.  model%st must hold the state of eom_residual at the same
-  !> (t, q, v, vdot, lambda), and model%force that pass's applied forces; model%dst is left
-  !> holding the state's change (for the constraint rows).  dq, dv and dvdot must vanish on the
-  !> joints before body `first` (a column of the Jacobian starts there; 1 for any direction).
+  !> the Newton-Euler pass, about eom_residual's pass at (t, q, v, vdot, lambda): evaluated
+  !> here unless the workspace holds it (so a Jacobian's columns share one pass).  model%dst is
+  !> left holding the state's change (for the constraint rows).  dq, dv and dvdot must vanish on
+  !> the joints before body `first` (a column of the Jacobian starts there; 1 for any direction).
   subroutine eom_residual_tangent(model, t, q, v, vdot, lambda, dq, dv, dvdot, dlambda, first, dres)
-    type(model_type), intent(inout) :: model  !< model, state current
+    type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t                 !< time [s]
-    real(dp), intent(in) :: q(:), v(:), vdot(:)  !< coordinates, rates, accelerations
+    real(dp), intent(in) :: q(:), v(:), vdot(:)  !< coordinates, rates, accelerations (the base point)
     real(dp), intent(in) :: lambda(:)         !< multipliers (size nc)
     real(dp), intent(in) :: dq(:), dv(:), dvdot(:)  !< their change
     real(dp), intent(in) :: dlambda(:)        !< change of the multipliers
@@ -180,6 +291,9 @@ contains
     real(dp), intent(out) :: dres(:)          !< (nq) change of the residual
     real(dp) :: f_b(3), m_b(3), df_b(3), dm_b(3)
     integer :: i
+    if (.not. workspace_holds(model, HOLDS_EOM, t, q, v, vdot, lambda)) then
+      call eom_residual(model, t, q, v, vdot, lambda, dres)   ! the base point (dres: scratch)
+    end if
     call positions_tangent(model%chain, model%st, dq, first, model%dst)
     call motion_tangent(model%chain, model%seed, model%st, v, vdot, dv, dvdot, model%dst)
     model%dforce = 0.0_dp
@@ -254,8 +368,7 @@ contains
     real(dp), intent(in) :: q(:), v(:)        !< coordinates and rates
     real(dp), intent(out) :: gv(:)            !< (nc)
     if (model%nc == 0) return
-    call positions_at(model, t, q)
-    call chain_motion(model%chain, model%seed, v, model%zero_q, model%st)
+    call state_motion(model, t, q, v)
     call model%support_b%velocity(model%chain, model%st, model%fs, gv)
   end subroutine constraint_velocity
 
@@ -268,6 +381,7 @@ contains
     if (model%nc == 0) return
     call positions_at(model, t, q)
     call chain_motion(model%chain, model%seed, v, model%zero_q, model%st)
+    call record(model, HOLDS_MOTION, t, q, v, model%zero_q)
     call model%support_b%bias(model%chain, model%st, model%fs, gb)
   end subroutine constraint_bias
 
@@ -297,7 +411,7 @@ contains
       call model%support_b%jacobian(model%chain, model%st, a(nq + 1:, 1:nq))
       a(1:nq, nq + 1:) = transpose(a(nq + 1:, 1:nq))
     end if
-    call eom_residual(model, t, q, v, model%zero_q, model%zero_c, rhs(1:nq), frames_current=.true.)
+    call eom_residual(model, t, q, v, model%zero_q, model%zero_c, rhs(1:nq))   ! the frames above reused
     rhs(1:nq) = -rhs(1:nq)                    ! k(q, v, t)
     if (nc > 0) then
       call model%support_b%bias(model%chain, model%st, model%fs, rhs(nq + 1:))
@@ -316,7 +430,7 @@ contains
   !> Kinetic energy relative to the model frame, sum of m v_C^2/2 + w.Theta w/2, from the
   !> velocities in model%st.
   function kinetic_energy(model) result(e)
-    type(model_type), intent(in) :: model     !< model with current velocities
+    type(model_type), intent(in) :: model     !< model (private: state_energies fills the workspace first)
     real(dp) :: e
     real(dp) :: v(3), w(3)
     integer :: j
@@ -334,7 +448,7 @@ contains
   !> (its rotational part left out where the frame terms leave out the rotational inertia).
   !> With these, kinetic + potential is the Jacobi integral of a frame turning at constant Omega.
   function stored_energy(model, q) result(e)
-    type(model_type), intent(in) :: model     !< model with current frames
+    type(model_type), intent(in) :: model     !< model (private: state_energies fills the workspace first)
     real(dp), intent(in) :: q(:)              !< coordinates
     real(dp) :: e
     real(dp) :: w(3), r(3)
@@ -357,10 +471,9 @@ contains
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t                 !< time [s]
     real(dp), intent(in) :: q(:), v(:)        !< coordinates and rates
-    real(dp) :: e
-    call positions_at(model, t, q)
-    call chain_motion(model%chain, model%seed, v, model%zero_q, model%st)
-    e = kinetic_energy(model) + stored_energy(model, q)
+    real(dp) :: e, kinetic, potential
+    call state_energies(model, t, q, v, kinetic, potential)
+    e = kinetic + potential
   end function total_energy
 
   !> Times at which some load jumps, ascending (the integrator stops and restarts there).

@@ -1,5 +1,5 @@
-!> Building a model from its description in flat arrays (what Python's schema-validated deck
-!> becomes): the chain, then loads and supports through their factories, the rotor, and the
+!> Building a model from its description in flat arrays and parameter blocks (what Python's
+!> schema-validated deck becomes): the chain, then loads and supports through their factories, the rotor, and the
 !> checks that need the assembled geometry (reach of clamp B, enough coordinates).
 module rotorcable_model_builder
   use rotorcable_kinds, only: dp
@@ -9,12 +9,11 @@ module rotorcable_model_builder
   use rotorcable_model, only: model_type, model_init
   use rotorcable_loads_type, only: load_slot
   use rotorcable_loads_factory, only: new_load
-  use rotorcable_parameter_block, only: parameter_block
+  use rotorcable_parameter_block, only: parameter_block, get_int, get_reals
   use rotorcable_supports_factory, only: new_support
   use rotorcable_projection, only: clamp_reach
-  use rotorcable_motion_builder, only: motion_from_flat
-  use rotorcable_motion_rotor, only: set_constant_speed, set_runup_speed, set_table_speed, ROTOR_CONSTANT, ROTOR_RUNUP, &
-                                     ROTOR_TABLE
+  use rotorcable_motion_builder, only: motion_from_block
+  use rotorcable_motion_rotor, only: rotor_from_block
   implicit none
   private
   public :: build_chain, build_load, build_base, build_support, build_rotor, build_finish, thesis_to_coordinates
@@ -60,16 +59,17 @@ contains
     call move_alloc(grown, model%loads)
   end subroutine build_load
 
-  !> Support A: its reference pose and an optional prescribed motion.
-  subroutine build_base(model, position, rotation, motion_ints, motion_reals, error)
+  !> Support A: its reference pose (position(3) of P_1 [m], rotation(9): R_0 column by column)
+  !> and its prescribed motion under 'motion.' (rotorcable_motion_builder; 0 hinges: fixed).
+  subroutine build_base(model, params, error)
     type(model_type), intent(inout) :: model  !< model
-    real(dp), intent(in) :: position(3), rotation(3, 3)  !< reference pose of P_1 and R_0
-    integer, intent(in) :: motion_ints(:)     !< motion description (rotorcable_motion_builder)
-    real(dp), intent(in) :: motion_reals(:)
+    type(parameter_block), intent(in) :: params  !< its parameters
     type(error_type), intent(inout) :: error  !< status
-    model%base%position = position
-    model%base%rotation = rotation
-    call motion_from_flat(motion_ints, motion_reals, model%base%motion, error)
+    real(dp) :: rotation(9)
+    call get_reals(params, 'position', model%base%position, error)
+    call get_reals(params, 'rotation', rotation, error)
+    model%base%rotation = reshape(rotation, [3, 3])
+    call motion_from_block(params, 'motion.', model%base%motion, error)
     model%base%moving = size(model%base%motion%hinges) > 0
   end subroutine build_base
 
@@ -86,31 +86,21 @@ contains
     call new_support(kind, model%support_b, model%chain, params, error)
   end subroutine build_support
 
-  !> The rotor (speed profile, centre) and the frame of the equations.
-  subroutine build_rotor(model, kind, centre, params, hub, body_couples, error)
+  !> The rotor (speed profile, centre: rotorcable_motion_rotor, rotor_from_block) and the frame
+  !> of the equations: hub (1: equations in the hub frame), body_couples (1: rotational inertia
+  !> in the frame terms).
+  subroutine build_rotor(model, params, error)
     type(model_type), intent(inout) :: model  !< model
-    integer, intent(in) :: kind               !< ROTOR_CONSTANT, ROTOR_RUNUP or ROTOR_TABLE
-    real(dp), intent(in) :: centre(3)         !< rotor centre [m]
-    real(dp), intent(in) :: params(:)         !< constant: (Omega); run-up: (Omega_0, Omega_1, t_0, T);
-                                              !< table: (t_1..t_m, Omega_1..Omega_m)
-    logical, intent(in) :: hub                !< equations in the hub frame
-    logical, intent(in) :: body_couples       !< rotational inertia in the frame terms
+    type(parameter_block), intent(in) :: params  !< its parameters
     type(error_type), intent(inout) :: error  !< status
-    integer :: m
-    select case (kind)
-    case (ROTOR_CONSTANT)
-      call set_constant_speed(model%rotor, params(1), centre)
-    case (ROTOR_RUNUP)
-      call set_runup_speed(model%rotor, params(1), params(2), params(3), params(4), centre, error)
-    case (ROTOR_TABLE)
-      m = size(params)/2
-      call set_table_speed(model%rotor, params(1:m), params(m + 1:2*m), centre, error)
-    case default
-      call fatal_error(error, 'unknown rotor speed profile')
-    end select
-    model%frame%hub = hub
-    model%frame%body_couples = body_couples
-    model%frame%centre = centre
+    integer :: hub, body_couples
+    call get_int(params, 'hub', hub, error)
+    call get_int(params, 'body_couples', body_couples, error)
+    if (error%code /= 0) return
+    call rotor_from_block(model%rotor, params, error)
+    model%frame%hub = hub /= 0
+    model%frame%body_couples = body_couples /= 0
+    model%frame%centre = model%rotor%centre
   end subroutine build_rotor
 
   !> Size the workspace and check what needs the assembled model.

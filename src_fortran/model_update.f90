@@ -10,12 +10,12 @@
 !>
 !> A load declares its own parameters (load_term%set_parameter); the rotor's speed is the
 !> model's.  After a change nothing prepared for the old value may remain: the time-dependent
-!> state of model_prepare (rotor state, frame motion, support poses) is marked stale.  The
-!> workspace (model%st, forces) is rewritten by every evaluation and needs nothing.
+!> state of model_prepare (rotor state, frame motion, support poses) and the workspace record
+!> (what model%st and the forces hold) are marked stale (model_stale).
 module rotorcable_model_update
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error
-  use rotorcable_model, only: model_type
+  use rotorcable_model, only: model_type, model_stale
   use rotorcable_motion_rotor, only: change_constant_speed, ROTOR_CONSTANT, ROTOR_STILL
   implicit none
   private
@@ -57,7 +57,7 @@ contains
       call fatal_error(error, 'model parameter '''//name//''': '//why%message)
     end if
     ! Whatever happened, nothing prepared before the call is trusted after it.
-    model%prepared = .false.
+    call model_stale(model)
   end subroutine update_parameter
 
   !> The current value of the parameter `name` (for a caller that restores it afterwards).

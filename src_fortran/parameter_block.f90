@@ -6,13 +6,16 @@
 !>
 !> Across f2py the block travels flat (api.f90): the real arrays' names in one blank-separated
 !> string, their sizes, and their values one after the other; the same for the integer arrays.
-!> pydriver/core.py (`_parameter_arrays`) is the one place that builds that layout.
+!> pydriver/core.py (`_parameter_arrays`) is the one place that builds that layout.  A word (a
+!> choice such as the linear solver 'chain') travels as the integer array of its character
+!> codes, so a block needs no character arrays across f2py; `get_word` reads it back.
 module rotorcable_parameter_block
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error
   implicit none
   private
-  public :: parameter_block, block_from_flat, has_parameter, parameter_size, get_real, get_reals, get_int, get_ints
+  public :: parameter_block, block_from_flat, has_parameter, parameter_size, get_real, get_reals, get_int, get_ints, &
+            get_word
 
   integer, parameter :: NAME_LEN = 32
 
@@ -142,6 +145,31 @@ contains
     end if
     values = block%ints(first:last)
   end subroutine get_ints
+
+  !> The word `name` (sent as its character codes, pydriver/core.py `_parameter_arrays`).
+  subroutine get_word(block, name, value, error)
+    type(parameter_block), intent(in) :: block    !< the block
+    character(len=*), intent(in) :: name          !< parameter name
+    character(len=:), allocatable, intent(out) :: value  !< the word ('' if missing)
+    type(error_type), intent(inout) :: error      !< status: missing, or not character codes
+    integer :: i, first, last, k
+    value = ''
+    i = findloc_name(block%int_names, name)
+    if (i == 0) then
+      call missing(block, name, error)
+      return
+    end if
+    first = block%int_first(i)
+    last = block%int_first(i + 1) - 1
+    if (any(block%ints(first:last) < 32) .or. any(block%ints(first:last) > 126)) then
+      call fatal_error(error, block%owner//': parameter '''//name//''' is not a word (printable character codes)')
+      return
+    end if
+    value = repeat(' ', last - first + 1)
+    do k = first, last
+      value(k - first + 1:k - first + 1) = achar(block%ints(k))
+    end do
+  end subroutine get_word
 
   pure integer function findloc_name(names, name) result(i)
     character(len=NAME_LEN), intent(in) :: names(:)

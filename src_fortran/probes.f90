@@ -11,7 +11,7 @@ module rotorcable_probes
                               total_energy, positions_at
   use rotorcable_model_registry, only: lookup_model
   use rotorcable_mass_matrix, only: mass_matrix_jourdain
-  use rotorcable_dae_integrator, only: integrator_settings, settings_from_arrays, solver_stats, consistent_start, &
+  use rotorcable_dae_integrator, only: integrator_settings, settings_from_flat, solver_stats, consistent_start, &
                                        integrate
   use rotorcable_ggl_residual, only: ggl_residual_dense, ggl_jacobian_dense, ggl_residual_tangent
   use rotorcable_ggl_linear_solver, only: ggl_block_solver, block_factorise, block_solve
@@ -146,7 +146,8 @@ contains
   end subroutine rc_probe_ggl_residual
 
   !> The first-order change of the GGL residual at (t, y, y') for the change (dy, dyd), by the
-  !> tangent sweep of the analytic Jacobian (ggl_residual_tangent, from body 1).
+  !> tangent sweep of the analytic Jacobian (ggl_residual_tangent, from body 1), which evaluates
+  !> its base point itself unless the workspace holds it (nothing is evaluated before it here).
   subroutine rc_probe_residual_tangent(handle, t, n, y, yd, dy, dyd, dr, stat, msg)
     integer(c_int), intent(in) :: handle          !< model handle
     real(c_double), intent(in) :: t               !< time [s]
@@ -158,14 +159,12 @@ contains
     character(len=1024), intent(out) :: msg       !< why not
     type(model_type), pointer :: model
     type(error_type) :: error
-    real(dp) :: r(n)
     dr = 0.0_dp
     model => model_of(handle, error)
     if (error%code == 0) then
       if (n /= 2*model%nq + 2*model%nc) call fatal_error(error, 'n must be 2 nq + 2 nc')
     end if
     if (error%code == 0) then
-      call ggl_residual_dense(model, t, y, yd, r)
       call ggl_residual_tangent(model, t, y, yd, dy, dyd, 1, dr)
     end if
     call to_status(error, stat, msg)
@@ -416,12 +415,20 @@ contains
   !> work-precision comparison: method 1 = IDA on the GGL index-2 DAE (the default route),
   !> 2 = GSL rk8pd and 3 = GSL msbdf on the Baumgarte-stabilised index-1 ODE (thesis route).
   !> Only the integration is timed; returns the CMs at ns equally spaced samples.
-  subroutine rc_probe_integrate(handle, method, settings_real, settings_int, baumgarte_omega, t0, t_end, nq, q0, &
-                                v0, ns, nb, cm_samples, q_end, v_end, stats, cpu_s, wall_s, stat, msg)
+  subroutine rc_probe_integrate(handle, method, real_names, nrn, real_sizes, nr, reals, int_names, nin, int_sizes, ni, &
+                                ints, baumgarte_omega, &
+                                t0, t_end, nq, q0, v0, ns, nb, cm_samples, q_end, v_end, stats, cpu_s, wall_s, stat, msg)
     integer(c_int), intent(in) :: handle          !< model handle
     integer(c_int), intent(in) :: method          !< 1 IDA-GGL, 2 GSL rk8pd, 3 GSL msbdf
-    real(c_double), intent(in) :: settings_real(4)  !< rtol, atol, atol_multiplier, h_max
-    integer(c_int), intent(in) :: settings_int(5)   !< as rc_dynamic_start
+    character(len=*), intent(in) :: real_names    !< solver settings (pydriver/components.py SOLVER): names of
+                                                  !< the real arrays, blank-separated
+    integer(c_int), intent(in) :: nrn, nr         !< how many real arrays, real values
+    integer(c_int), intent(in) :: real_sizes(nrn) !< size of each real array
+    real(c_double), intent(in) :: reals(nr)       !< their values, one after the other
+    character(len=*), intent(in) :: int_names     !< names of the integer arrays (words as character codes)
+    integer(c_int), intent(in) :: nin, ni         !< how many integer arrays, integer values
+    integer(c_int), intent(in) :: int_sizes(nin)  !< size of each integer array
+    integer(c_int), intent(in) :: ints(ni)        !< their values
     real(c_double), intent(in) :: baumgarte_omega !< Baumgarte constant of the ODE route [1/s]
     real(c_double), intent(in) :: t0, t_end       !< start and end [s]
     integer(c_int), intent(in) :: nq              !< coordinates
@@ -452,7 +459,11 @@ contains
       t(k) = t0 + (t_end - t0)*real(k - 1, dp)/real(m - 1, dp)
     end do
     t(m) = t_end
-    settings = settings_from_arrays(settings_real, settings_int)
+    call settings_from_flat(real_names, real_sizes, reals, int_names, int_sizes, ints, settings, error)
+    if (error%code /= 0) then
+      call to_status(error, stat, msg)
+      return
+    end if
     call system_clock(k0, rate)
     call cpu_time(c0)
     select case (method)

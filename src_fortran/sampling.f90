@@ -7,7 +7,8 @@
 !> index-2 multipliers of a BDF method.  Two kinematic passes per sample.
 module rotorcable_sampling
   use rotorcable_kinds, only: dp
-  use rotorcable_model, only: model_type, solve_accelerations, eom_residual, kinetic_energy, stored_energy
+  use rotorcable_model, only: model_type, solve_accelerations, eom_residual, state_energies, positions_at, &
+                              model_prepare, workspace_holds, HOLDS_EOM
   use rotorcable_kinematics, only: joint_angles
   use rotorcable_joint, only: thesis_angles
   use rotorcable_rotations, only: cross
@@ -17,8 +18,9 @@ module rotorcable_sampling
 
 contains
 
-  !> Reactions, energies and max |g| of the position rows at (q, v, t).  On return model%st
-  !> holds the frames, motion and joint wrenches of this state.
+  !> Reactions, energies and max |g| of the position rows at (q, v, t).  On return the workspace
+  !> holds the frames, motion and joint wrenches of this state (model%ws%solved: with the
+  !> accelerations and multipliers of eq. 3.55), which joint_loads reads.
   subroutine sample_state(model, t, q, v, wrenches, kinetic, potential, g_max, info, multipliers)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t                 !< time [s]
@@ -32,10 +34,10 @@ contains
     real(dp) :: vdot(model%nq), lambda(max(model%nc, 1)), res(model%nq), g(max(model%nc, 1))
     lambda = 0.0_dp
     call solve_accelerations(model, t, q, v, vdot, lambda(1:model%nc), info)
-    call eom_residual(model, t, q, v, vdot, lambda, res, wrenches, frames_current=.true.)
+    call eom_residual(model, t, q, v, vdot, lambda, res, wrenches)   ! the frames of q reused
+    model%ws%solved = info == 0
     if (present(multipliers)) multipliers = lambda(1:model%nc)
-    kinetic = kinetic_energy(model)
-    potential = stored_energy(model, q)
+    call state_energies(model, t, q, v, kinetic, potential)
     g_max = 0.0_dp
     if (model%nc > 0) then
       call model%support_b%residual(model%chain, model%st, g(1:model%nc))
@@ -43,8 +45,9 @@ contains
     end if
   end subroutine sample_state
 
-  !> The wrench every joint transmits (parent on child, at the joint point, from model%st after
-  !> sample_state), resolved along the child's axis e, and the joint's bending angle.
+  !> The wrench every joint transmits at the sampled state (q, v, t) (parent on child, at the
+  !> joint point; sample_state's pass, evaluated here unless the workspace holds it), resolved
+  !> along the child's axis e, and the joint's bending angle.
   !> axial = -f.e (positive in tension: a parent pulls its child back along -e), shear =
   !> |f - (f.e) e|, torsion = n.e, bending = |n - (n.e) e|; bend angle = the angle between the
   !> parent's axis (the base frame's z for joint 1) and the child's, 0 at a locked joint.
@@ -52,8 +55,10 @@ contains
   !> halves its cycles): moment_xy = (n.e1, n.e2) and the bend vector kappa_xy = theta/sin(theta)
   !> ((e_parent x e).e1, (e_parent x e).e2), both in the child's body axes e1, e2, so they
   !> turn with the jacket when it twists (docs/model.md, "Fatigue").
-  subroutine joint_loads(model, axial, shear, bending, torsion, bend_angle, moment_xy, bend_xy)
-    type(model_type), intent(in) :: model     !< model after sample_state
+  subroutine joint_loads(model, t, q, v, axial, shear, bending, torsion, bend_angle, moment_xy, bend_xy)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: q(:), v(:)        !< coordinates and rates
     real(dp), intent(out) :: axial(:)         !< (n) axial force [N]
     real(dp), intent(out) :: shear(:)         !< (n) shear force [N]
     real(dp), intent(out) :: bending(:)       !< (n) bending moment [Nm]
@@ -62,7 +67,10 @@ contains
     real(dp), intent(out) :: moment_xy(:, :)  !< (2,n) bending moment in the child's axes [Nm]
     real(dp), intent(out) :: bend_xy(:, :)    !< (2,n) bend vector in the child's axes [rad]
     real(dp) :: e(3), e_parent(3), f(3), m(3), axis(3), s, theta, scale
-    integer :: j
+    real(dp) :: wrenches(12), kinetic, potential, g_max
+    integer :: j, info
+    if (.not. (model%ws%solved .and. workspace_holds(model, HOLDS_EOM, t, q, v))) &
+      call sample_state(model, t, q, v, wrenches, kinetic, potential, g_max, info)
     e_parent = model%base_rot(:, 3)
     do j = 1, model%chain%n_bodies
       e = model%st%rot(:, 3, j)
@@ -91,28 +99,34 @@ contains
     end do
   end subroutine joint_loads
 
-  !> The thesis's (gamma, beta) of every body [rad] for q, and the CMs and joint points from
-  !> model%st (frames of q must be current).
-  subroutine shape_of(model, q, angles, cm, joints)
-    type(model_type), intent(in) :: model     !< model with the frames of q
+  !> The thesis's (gamma, beta) of every body [rad] for q, and the CMs, joint points and the last
+  !> body's rotation at (q, t) (the frames of q, evaluated unless the workspace holds them).
+  subroutine shape_of(model, t, q, angles, cm, joints, last_rotation)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time [s]
     real(dp), intent(in) :: q(:)              !< coordinates [rad]
     real(dp), intent(out) :: angles(:, :)     !< (2,n) gamma, beta [rad]
     real(dp), intent(out) :: cm(:, :)         !< (3,n) centres of mass [m]
     real(dp), intent(out) :: joints(:, :)     !< (3,n+1) joint points [m]
+    real(dp), intent(out), optional :: last_rotation(3, 3)  !< R_n
     integer :: j
+    call positions_at(model, t, q)
     do j = 1, model%chain%n_bodies
       angles(:, j) = thesis_angles(model%chain%joint_kind(j), joint_angles(model%chain, q, j))
     end do
     cm = model%st%cm
     joints = model%st%joint_point
+    if (present(last_rotation)) last_rotation = model%st%rot(:, :, model%chain%n_bodies)
   end subroutine shape_of
 
-  !> Velocities of the supports relative to the model frame at the time last prepared: P_1 and
-  !> the base frame's rotation rate, clamp B's point and rotation rate (zero when fixed).
-  !> With the reactions they give the power the supports put into the chain.
-  subroutine support_motion(model, twists)
-    type(model_type), intent(in) :: model     !< prepared model
+  !> Velocities of the supports relative to the model frame at time t: P_1 and the base
+  !> frame's rotation rate, clamp B's point and rotation rate (zero when fixed).  With the
+  !> reactions they give the power the supports put into the chain.
+  subroutine support_motion(model, t, twists)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time [s]
     real(dp), intent(out) :: twists(12)       !< v_A, w_A, v_B, w_B [m/s, rad/s]
+    call model_prepare(model, t)
     twists = 0.0_dp
     twists(1:3) = model%base_vel
     twists(4:6) = model%base_omega

@@ -102,7 +102,7 @@ class FlightModel:
         rot = desc["rotor"]
         if rot is None or rot["profile"] != "constant" or not rot["hub"]:
             raise NotImplementedError("a constant-speed rotor in the hub frame")
-        self.omega = float(rot["params"][0])
+        self.omega = float(rot["speed"]["omega"])
         self.centre = np.asarray(rot["centre"], float)
         self.azimuth0 = float(rot["azimuth0"])
         n = self.n = model.n_bodies

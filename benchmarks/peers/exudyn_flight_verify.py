@@ -44,7 +44,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     model = flight_model(DECK, args.n, parse_sets(args.sets))
     q0, v0 = flight_start(model)
-    period = 2.0 * math.pi / float(model.description["rotor"]["params"][0])
+    period = 2.0 * math.pi / float(model.description["rotor"]["speed"]["omega"])
     t_end = args.revolutions * period
     ref = timed_run(model, q0, v0, t_end, rtol=1e-10, atol=1e-12, samples=args.samples)
     import exudyn_flight as ef               # after the rotorcable runs (import slows the core)

@@ -84,7 +84,7 @@ def _joint_row(model, ts, j, sn, record, periodic):
 def _record(model, ts, periodic: bool) -> dict:
     """How the record maps to flight hours and to the DEL's equivalent cycle count."""
     if periodic:
-        rpm = model.description["rotor"]["params"][0] * 60.0 / (2.0 * np.pi)
+        rpm = float(model.description["rotor"]["speed"]["omega"]) * 60.0 / (2.0 * np.pi)
         return {"per_hour": 60.0 * rpm, "n_equivalent": 1.0, "equivalent": "1/rev",
                 "record": "one periodic revolution"}
     duration = float(ts["t"][-1] - ts["t"][0])

@@ -51,7 +51,7 @@ def rotor_period(model) -> float:
     here as 0 (a denormal rpm times pi/30 underflows) must not divide by zero: a DeckError
     naming the speed key instead.
     """
-    omega = float(model.description["rotor"]["params"][0])
+    omega = float(model.description["rotor"]["speed"]["omega"])
     period = 2.0 * np.pi / omega if omega > 0.0 else np.inf
     if not np.isfinite(period):
         group, key = ("rotor", "rpm") if "rotor" in model.deck.groups else ("loads", "rotor_rpm")

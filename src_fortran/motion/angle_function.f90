@@ -12,12 +12,14 @@
 !>  * the rotor angle psi(t) itself (a support carried round by the rotor).
 module rotorcable_motion_angle_function
   use rotorcable_kinds, only: dp
-  use rotorcable_errors, only: error_type
+  use rotorcable_errors, only: error_type, fatal_error
+  use rotorcable_parameter_block, only: parameter_block, parameter_size, get_real, get_reals, get_word
   use rotorcable_motion_rotor, only: rotor_state
   use rotorcable_motion_table_spline, only: table_spline, spline_init, spline_eval, spline_free
   implicit none
   private
   public :: angle_function, angle_eval, set_fourier_angle, set_table_angle, set_rotor_angle, angle_free, &
+            angle_from_block, &
             ANGLE_CONSTANT, ANGLE_FOURIER, ANGLE_TABLE, ANGLE_ROTOR
 
   integer, parameter :: ANGLE_CONSTANT = 0, ANGLE_FOURIER = 1, ANGLE_TABLE = 2, ANGLE_ROTOR = 3
@@ -76,6 +78,46 @@ contains
     f%kind = ANGLE_ROTOR
     f%mean = offset
   end subroutine set_rotor_angle
+
+  !> The angle a parameter block describes under `prefix` (pydriver/motions.py, ANGLES, declares
+  !> the names): `prefix`angle, the kind as a word, and that kind's parameters:
+  !>   constant: value [rad];  rotor: offset [rad];  table: t [s], theta [rad] (as many);
+  !>   fourier: azimuth0 [rad], extra_amplitude [rad], extra_frequency [rad/s], extra_phase [rad],
+  !>            coefficients (a_0, c_1, s_1, c_2, s_2, ...) [rad].
+  subroutine angle_from_block(f, params, prefix, error)
+    type(angle_function), intent(out) :: f    !< angle
+    type(parameter_block), intent(in) :: params  !< the block holding it
+    character(len=*), intent(in) :: prefix    !< its names' prefix ('motion.hinge2.')
+    type(error_type), intent(inout) :: error  !< status
+    character(len=:), allocatable :: kind
+    real(dp), allocatable :: values(:), times(:)
+    real(dp) :: azimuth_0, amplitude, omega, phase
+    call get_word(params, prefix//'angle', kind, error)
+    if (error%code /= 0) return
+    select case (kind)
+    case ('constant')
+      call get_real(params, prefix//'value', f%mean, error)
+    case ('rotor')
+      call get_real(params, prefix//'offset', phase, error)
+      if (error%code == 0) call set_rotor_angle(f, phase)
+    case ('fourier')
+      call get_real(params, prefix//'azimuth0', azimuth_0, error)
+      call get_real(params, prefix//'extra_amplitude', amplitude, error)
+      call get_real(params, prefix//'extra_frequency', omega, error)
+      call get_real(params, prefix//'extra_phase', phase, error)
+      allocate (values(max(parameter_size(params, prefix//'coefficients'), 0)))
+      call get_reals(params, prefix//'coefficients', values, error)
+      if (error%code == 0) call set_fourier_angle(f, values, azimuth_0, amplitude, omega, phase)
+    case ('table')
+      allocate (times(max(parameter_size(params, prefix//'t'), 0)))
+      call get_reals(params, prefix//'t', times, error)
+      allocate (values(size(times)))
+      call get_reals(params, prefix//'theta', values, error)
+      if (error%code == 0) call set_table_angle(f, times, values, error)
+    case default
+      call fatal_error(error, params%owner//': '''//kind//''' is not an angle kind of the core ('//prefix//'angle)')
+    end select
+  end subroutine angle_from_block
 
   !> theta, theta-dot, theta-ddot at time t for the rotor state rs.
   subroutine angle_eval(f, t, rs, a, ad, add)

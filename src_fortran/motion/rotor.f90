@@ -10,11 +10,12 @@
 module rotorcable_motion_rotor
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error
+  use rotorcable_parameter_block, only: parameter_block, parameter_size, get_real, get_reals, get_word
   use rotorcable_motion_table_spline, only: table_spline, spline_init, spline_eval, spline_integral, spline_free
   implicit none
   private
   public :: rotor_type, rotor_state, rotor_at, set_constant_speed, set_runup_speed, set_table_speed, rotor_free, &
-            change_constant_speed, &
+            change_constant_speed, rotor_from_block, &
             ROTOR_STILL, ROTOR_CONSTANT, ROTOR_RUNUP, ROTOR_TABLE
 
   integer, parameter :: ROTOR_STILL = 0, ROTOR_CONSTANT = 1, ROTOR_RUNUP = 2, ROTOR_TABLE = 3
@@ -99,6 +100,42 @@ contains
     if (error%code == 0 .and. t(1) > 0.0_dp) &
       call fatal_error(error, 'the speed table must start at t = 0 or earlier')
   end subroutine set_table_speed
+
+  !> The rotor a parameter block describes (pydriver/motions.py, ROTOR_PROFILES, declares the
+  !> names): profile (a word), centre(3) [m], and the profile's parameters:
+  !>   constant: omega [rad/s];
+  !>   runup: omega_start, omega_end [rad/s], t_start, duration [s];
+  !>   table: t [s], omega [rad/s] (as many).
+  subroutine rotor_from_block(r, params, error)
+    type(rotor_type), intent(inout) :: r      !< rotor
+    type(parameter_block), intent(in) :: params  !< its parameters
+    type(error_type), intent(inout) :: error  !< status
+    character(len=:), allocatable :: profile
+    real(dp) :: centre(3), omega_0, omega_1, t_start, duration
+    real(dp), allocatable :: t(:), omega(:)
+    call get_reals(params, 'centre', centre, error)
+    call get_word(params, 'profile', profile, error)
+    if (error%code /= 0) return
+    select case (profile)
+    case ('constant')
+      call get_real(params, 'omega', omega_0, error)
+      if (error%code == 0) call set_constant_speed(r, omega_0, centre)
+    case ('runup')
+      call get_real(params, 'omega_start', omega_0, error)
+      call get_real(params, 'omega_end', omega_1, error)
+      call get_real(params, 't_start', t_start, error)
+      call get_real(params, 'duration', duration, error)
+      if (error%code == 0) call set_runup_speed(r, omega_0, omega_1, t_start, duration, centre, error)
+    case ('table')
+      allocate (t(max(parameter_size(params, 't'), 0)))
+      call get_reals(params, 't', t, error)
+      allocate (omega(size(t)))
+      call get_reals(params, 'omega', omega, error)
+      if (error%code == 0) call set_table_speed(r, t, omega, centre, error)
+    case default
+      call fatal_error(error, 'rotor: '''//profile//''' is not a speed profile of the core', key='rotor.profile')
+    end select
+  end subroutine rotor_from_block
 
   !> Rotor angle, speed and acceleration at time t.
   function rotor_at(r, t) result(s)

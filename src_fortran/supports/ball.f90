@@ -8,7 +8,7 @@
 !> relative to the model frame; the rows clamp B has for its position,
 !> rotorcable_supports_tip_point).  The multipliers are the force on the tip:
 !> F_B = lambda, M_B = 0 (eq. 3.50: G^T lambda is the generalized force of F_B at P_{n+1}).
-!> Parameters: position(3) [m], motion_ints, motion_reals (rotorcable_motion_builder).
+!> Parameters: position(3) [m], and its motion under 'motion.' (rotorcable_motion_builder).
 module rotorcable_supports_ball
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type
@@ -59,7 +59,7 @@ module rotorcable_supports_ball
 
 contains
 
-  !> Build from its parameter block: position, motion_ints, motion_reals.
+  !> Build from its parameter block: position and the motion under 'motion.'.
   subroutine new_ball(support, chain, params, error)
     class(support_type), allocatable, intent(out) :: support  !< the support built
     type(chain_type), intent(in) :: chain     !< chain description
@@ -67,7 +67,7 @@ contains
     type(error_type), intent(inout) :: error  !< status
     type(ball_support) :: ball
     call get_reals(params, 'position', ball%position_ref, error)
-    call motion_from_block(params, ball%motion, error)
+    call motion_from_block(params, 'motion.', ball%motion, error)
     if (error%code /= 0) return
     ball%label = 'ball B'
     ball%position_key = 'ball_b.position'

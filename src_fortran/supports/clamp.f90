@@ -14,8 +14,8 @@
 !> (rotorcable_frame) and Tdot = (tr(Edot) I - Edot)/2.  The multipliers are the clamp wrench on
 !> the chain: F_B = lambda_pos, M_B = T^T lambda_rot (eq. 3.50: G^T lambda is the generalized
 !> force of that wrench).
-!> Parameters: position(3) [m], rotation(9) (R_B0 column by column), motion_ints, motion_reals
-!> (rotorcable_motion_builder).
+!> Parameters: position(3) [m], rotation(9) (R_B0 column by column), and its motion under
+!> 'motion.' (rotorcable_motion_builder).
 module rotorcable_supports_clamp
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type
@@ -77,14 +77,14 @@ contains
   subroutine new_clamp(support, chain, params, error)
     class(support_type), allocatable, intent(out) :: support  !< the support built
     type(chain_type), intent(in) :: chain     !< chain description
-    type(parameter_block), intent(in) :: params  !< position, rotation, motion_ints, motion_reals
+    type(parameter_block), intent(in) :: params  !< position, rotation, motion.*
     type(error_type), intent(inout) :: error  !< status
     type(clamp_support) :: clamp
     real(dp) :: rotation(9)
     type(rigid_motion) :: motion
     call get_reals(params, 'position', clamp%position_ref, error)
     call get_reals(params, 'rotation', rotation, error)
-    call motion_from_block(params, motion, error)
+    call motion_from_block(params, 'motion.', motion, error)
     if (error%code /= 0) return
     clamp%label = 'clamp B'
     clamp%position_key = 'clamp_b.position'
