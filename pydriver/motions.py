@@ -99,7 +99,7 @@ def rotor(deck: Deck) -> dict | None:
         if rpm == 0.0:
             return None
         speed = _declared(ROTOR_PROFILES, "constant", {"omega": rpm * RPM}, "rotor profile")
-        return {"profile": "constant", "centre": legacy_centre, "speed": speed, "params": [rpm * RPM], "hub": True,
+        return {"profile": "constant", "centre": legacy_centre, "speed": speed, "hub": True,
                 "body_couples": True, "omega_max": rpm * RPM}
     r = deck.values["rotor"]
     centre = np.asarray(r["centre"], float) if deck.has("rotor.centre") else legacy_centre
@@ -114,10 +114,7 @@ def rotor(deck: Deck) -> dict | None:
         speed = {"t": list(r["table_t"]), "omega": [x * RPM for x in r["table_rpm"]]}
         omega_max = max(r["table_rpm"]) * RPM
     speed = _declared(ROTOR_PROFILES, r["profile"], speed, "rotor profile")
-    # "params": the profile's values one after the other, for the readers of a stored description
-    # (Omega = params[0] of a constant profile).
-    params = [float(x) for name in ROTOR_PROFILES[r["profile"]] for x in np.atleast_1d(speed[name])]
-    return {"profile": r["profile"], "centre": centre, "speed": speed, "params": params, "hub": r["frame"] == "hub",
+    return {"profile": r["profile"], "centre": centre, "speed": speed, "hub": r["frame"] == "hub",
             "body_couples": bool(r["body_couples"]), "omega_max": omega_max}
 
 
