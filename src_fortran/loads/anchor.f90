@@ -28,7 +28,6 @@ module rotorcable_loads_anchor
     procedure :: add_forces
     procedure :: add_force_tangent
     procedure :: potential
-    procedure :: has_potential
   end type anchor_load
 
 contains
@@ -48,6 +47,7 @@ contains
     end if
     load%label = 'anchor spring'
     load%body = min(load%joint, chain%n_bodies)
+    load%conservative = .true.
     allocate (slot%term, source=load)
   end subroutine new_anchor
 
@@ -79,15 +79,8 @@ contains
 
   pure real(dp) function potential(self, chain, st, q) result(e)
     class(anchor_load), intent(in) :: self
-    type(chain_type), intent(in) :: chain
-    type(chain_state), intent(in) :: st
-    real(dp), intent(in) :: q(:)
+    include 'potential_arguments.inc'
     e = 0.5_dp*self%stiffness*sum((st%joint_point(:, self%joint) - self%point)**2)
   end function potential
-
-  pure logical function has_potential(self)
-    class(anchor_load), intent(in) :: self
-    has_potential = .true.
-  end function has_potential
 
 end module rotorcable_loads_anchor

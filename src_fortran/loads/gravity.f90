@@ -21,7 +21,6 @@ module rotorcable_loads_gravity
     procedure :: add_forces
     procedure :: add_force_tangent
     procedure :: potential
-    procedure :: has_potential
   end type gravity_load
 
 contains
@@ -33,6 +32,7 @@ contains
     call get_reals(params, 'g', load%g, error)
     if (error%code /= 0) return
     load%label = 'gravity'
+    load%conservative = .true.
     allocate (slot%term, source=load)
   end subroutine new_gravity
 
@@ -54,19 +54,12 @@ contains
 
   pure real(dp) function potential(self, chain, st, q) result(e)
     class(gravity_load), intent(in) :: self
-    type(chain_type), intent(in) :: chain
-    type(chain_state), intent(in) :: st
-    real(dp), intent(in) :: q(:)
+    include 'potential_arguments.inc'
     integer :: j
     e = 0.0_dp
     do j = 1, chain%n_bodies
       e = e - chain%mass(j)*dot_product(self%g, st%cm(:, j))
     end do
   end function potential
-
-  pure logical function has_potential(self)
-    class(gravity_load), intent(in) :: self
-    has_potential = .true.
-  end function has_potential
 
 end module rotorcable_loads_gravity

@@ -25,7 +25,6 @@ module rotorcable_loads_joint_springs
     procedure :: add_forces
     procedure :: add_force_tangent
     procedure :: potential
-    procedure :: has_potential
     procedure :: joint_diagonal
     procedure :: set_parameter
     procedure :: get_parameter
@@ -46,6 +45,7 @@ contains
     call get_reals(params, 'rest', load%rest, error)
     if (error%code /= 0) return
     load%label = 'joint springs'
+    load%conservative = .true.
     allocate (slot%term, source=load)
   end subroutine new_joint_springs
 
@@ -63,16 +63,9 @@ contains
 
   pure real(dp) function potential(self, chain, st, q) result(e)
     class(joint_springs_load), intent(in) :: self
-    type(chain_type), intent(in) :: chain
-    type(chain_state), intent(in) :: st
-    real(dp), intent(in) :: q(:)
+    include 'potential_arguments.inc'
     e = 0.5_dp*sum(self%stiffness*(q - self%rest)**2)
   end function potential
-
-  pure logical function has_potential(self)
-    class(joint_springs_load), intent(in) :: self
-    has_potential = .true.
-  end function has_potential
 
   pure subroutine joint_diagonal(self, stiffness, damping)
     class(joint_springs_load), intent(in) :: self

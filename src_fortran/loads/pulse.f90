@@ -27,7 +27,6 @@ module rotorcable_loads_pulse
     procedure :: add_forces
     procedure :: add_force_tangent
     procedure :: switch_times
-    procedure :: has_potential
     procedure :: set_parameter
     procedure :: get_parameter
   end type pulse_load
@@ -78,13 +77,6 @@ contains
     end if
   end subroutine switch_times
 
-  !> A pulse switched off is conservative with potential 0 (load_term's default), so that a
-  !> model with its pulse off is, to the statics' merit function too, the model built without it.
-  pure logical function has_potential(self)
-    class(pulse_load), intent(in) :: self
-    has_potential = .not. self%enabled
-  end function has_potential
-
   !> 'loads.pulse': 1 switches the pulse on, 0 off.
   subroutine set_parameter(self, name, values, found, error)
     class(pulse_load), intent(inout) :: self
@@ -100,6 +92,9 @@ contains
       call fatal_error(error, 'model parameter ''loads.pulse'' is 1 (on) or 0 (off)')
     else
       self%enabled = values(1) == 1.0_dp
+      ! A pulse switched off is conservative with potential 0 (load_term's default), so that a
+      ! model with its pulse off is, to the statics' merit function too, the model built without it.
+      self%conservative = .not. self%enabled
     end if
   end subroutine set_parameter
 

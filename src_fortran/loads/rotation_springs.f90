@@ -45,7 +45,6 @@ module rotorcable_loads_rotation_springs
     procedure :: add_forces
     procedure :: add_force_tangent
     procedure :: potential
-    procedure :: has_potential
     procedure :: joint_diagonal
     procedure :: set_parameter
     procedure :: get_parameter
@@ -81,6 +80,7 @@ contains
       load%stiffness(:, j) = stiffness(3*k - 2:3*k)
       load%damping(:, j) = damping(3*k - 2:3*k)
     end do
+    load%conservative = .true.
     allocate (slot%term, source=load)
   end subroutine new_rotation_springs
 
@@ -197,9 +197,7 @@ contains
 
   pure real(dp) function potential(self, chain, st, q) result(e)
     class(rotation_springs_load), intent(in) :: self
-    type(chain_type), intent(in) :: chain
-    type(chain_state), intent(in) :: st
-    real(dp), intent(in) :: q(:)
+    include 'potential_arguments.inc'
     real(dp) :: phi(3)
     integer :: j
     e = 0.0_dp
@@ -209,11 +207,6 @@ contains
       e = e + 0.5_dp*sum(self%stiffness(:, j)*phi**2)
     end do
   end function potential
-
-  pure logical function has_potential(self)
-    class(rotation_springs_load), intent(in) :: self
-    has_potential = .true.
-  end function has_potential
 
   !> The diagonal at q = 0 (A = I, J_r = I there): what a chain factorisation may use.
   pure subroutine joint_diagonal(self, stiffness, damping)

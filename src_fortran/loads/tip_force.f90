@@ -22,7 +22,6 @@ module rotorcable_loads_tip_force
     procedure :: add_forces
     procedure :: add_force_tangent
     procedure :: potential
-    procedure :: has_potential
   end type tip_force_load
 
 contains
@@ -34,6 +33,7 @@ contains
     call get_reals(params, 'force', load%force, error)
     if (error%code /= 0) return
     load%label = 'tip force'
+    load%conservative = .true.
     allocate (slot%term, source=load)
   end subroutine new_tip_force
 
@@ -61,15 +61,8 @@ contains
 
   pure real(dp) function potential(self, chain, st, q) result(e)
     class(tip_force_load), intent(in) :: self
-    type(chain_type), intent(in) :: chain
-    type(chain_state), intent(in) :: st
-    real(dp), intent(in) :: q(:)
+    include 'potential_arguments.inc'
     e = -dot_product(self%force, st%joint_point(:, chain%n_bodies + 1))
   end function potential
-
-  pure logical function has_potential(self)
-    class(tip_force_load), intent(in) :: self
-    has_potential = .true.
-  end function has_potential
 
 end module rotorcable_loads_tip_force

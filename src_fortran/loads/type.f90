@@ -21,6 +21,9 @@ module rotorcable_loads_type
   !> One load of a scene.
   type, abstract :: load_term
     character(len=32) :: label = ''           !< name for messages and documentation
+    !> The load is conservative with its potential (the energy balance counts it as stored, not
+    !> as work done); its constructor says so.
+    logical :: conservative = .false.
   contains
     !> Add the load's forces at the state (st: frames and absolute velocities) and time t.
     procedure(add_forces_interface), deferred :: add_forces
@@ -30,8 +33,8 @@ module rotorcable_loads_type
     procedure(add_force_tangent_interface), deferred :: add_force_tangent
     !> Potential energy at the frames in st (0 if the load has none, see has_potential).
     procedure :: potential => no_potential
-    !> Whether the load is conservative with the potential above.
-    procedure :: has_potential => never
+    !> Whether the load is conservative with the potential above (its `conservative` flag).
+    procedure, non_overridable :: has_potential
     !> Times at which the load jumps (the integrator stops exactly there and restarts).
     procedure :: switch_times => no_switch_times
     !> Constant diagonal joint-space stiffness and damping contributed by the load.
@@ -68,16 +71,14 @@ contains
 
   pure real(dp) function no_potential(self, chain, st, q) result(e)
     class(load_term), intent(in) :: self      !< the load
-    type(chain_type), intent(in) :: chain     !< chain description
-    type(chain_state), intent(in) :: st       !< frames
-    real(dp), intent(in) :: q(:)              !< coordinates [rad]
+    include 'potential_arguments.inc'
     e = 0.0_dp
   end function no_potential
 
-  pure logical function never(self)
+  pure logical function has_potential(self)
     class(load_term), intent(in) :: self      !< the load
-    never = .false.
-  end function never
+    has_potential = self%conservative
+  end function has_potential
 
   pure subroutine no_switch_times(self, times)
     class(load_term), intent(in) :: self      !< the load
