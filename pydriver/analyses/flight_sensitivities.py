@@ -15,9 +15,12 @@ sensitivities of a flight"):
        dx*/dp = (I - Phi)^-1 dX(T)/dp
 
    with Phi the monodromy at the start and dX(T)/dp the parameter sensitivities after one
-   revolution from the start with zero initial state sensitivity (first integration).
+   revolution from the start with zero initial state sensitivity (first integration).  Without
+   the monodromy: block GMRES on one-revolution products (:func:`_periodic_start_krylov`).
 3. **The revolution.**  A second integration from the start with the initial sensitivity
-   (N da*, N db* - G^+ H N da*) (made consistent in the core) gives s at every output time;
+   (N da*, N db* - G^+ H N da*) (made consistent in the core) gives s at every output time
+   (without the monodromy: the first integration's s plus the Krylov blocks' recorded histories
+   combined, by linearity);
    the outputs' derivatives are central differences of the core's sample function along
    (q + e s_q, v + e s_v, p + e): no re-solve.  s(T) = s(0) checks the periodicity.
 4. **Outputs.**  Peaks and extrema: the derivative at the arg-max sample (exact away from
