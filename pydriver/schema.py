@@ -27,6 +27,9 @@ INF = math.inf
 #: (``src_fortran/dae_integrator.f90``, settings_from_block) and ``&solver linear_solver`` is one
 #: of them or ``'auto'`` (resolved by :func:`pydriver.model.resolve_linear_solver`).
 LINEAR_SOLVERS = ("chain", "block", "dense")
+#: The rotor's speed profiles a deck may choose; pydriver.motions.ROTOR_PROFILES gives each its
+#: parameters for the core, and tests/test_components.py holds the two to the same names.
+ROTOR_PROFILE_NAMES = ("constant", "runup", "table")
 
 
 @dataclass(frozen=True)
@@ -175,7 +178,7 @@ def _keys() -> list[Key]:
     # &rotor -------------------------------------------------------------------------------
     add(Key("rotor", "rpm", "real", unit="rpm", **NONNEG, high=1.0e5, tiny=1.0e-3,
             doc="rotor speed (constant profile), or the speed the run-up ends at", differentiable=True))
-    add(Key("rotor", "profile", "str", default="constant", choices=("constant", "runup", "table"),
+    add(Key("rotor", "profile", "str", default="constant", choices=ROTOR_PROFILE_NAMES,
             doc="speed profile: constant, a smooth run-up from rpm_start to rpm, or a table"))
     add(Key("rotor", "rpm_start", "real", unit="rpm", default=0.0, **NONNEG, high=1.0e5, doc="run-up: speed before it"))
     add(Key("rotor", "runup_start", "real", unit="s", default=0.0, **NONNEG, high=1.0e7, doc="run-up: start time"))

@@ -209,3 +209,10 @@ def test_no_motion_is_read_by_position():
         text = (ROOT / "src_fortran" / "motion" / name).read_text()
         assert not re.search(r"\b(reals|ints|params)\(\w+ *[+:]", text), name
     assert not re.search(r"motion_(ints|reals)", (ROOT / "pydriver" / "components.py").read_text())
+
+
+def test_rotor_profiles_are_the_deck_choices():
+    """The rotor profiles the core is given parameters for are exactly the deck's choices."""
+    from pydriver.schema import ROTOR_PROFILE_NAMES, lookup
+    assert set(ROTOR_PROFILES) == set(ROTOR_PROFILE_NAMES)
+    assert tuple(lookup("rotor", "profile").choices) == ROTOR_PROFILE_NAMES
