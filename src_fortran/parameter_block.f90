@@ -96,15 +96,10 @@ contains
     character(len=*), intent(in) :: name          !< parameter name
     real(dp), intent(out) :: values(:)            !< its values (the size the caller expects)
     type(error_type), intent(inout) :: error      !< status: missing, or of another size
-    integer :: i, first, last
+    integer :: first, last
     values = 0.0_dp
-    i = findloc_name(block%real_names, name)
-    if (i == 0) then
-      call missing(block, name, error)
-      return
-    end if
-    first = block%real_first(i)
-    last = block%real_first(i + 1) - 1
+    call locate(block, block%real_names, block%real_first, name, first, last, error)
+    if (error%code /= 0) return
     if (last - first + 1 /= size(values)) then
       call wrong_size(block, name, last - first + 1, size(values), error)
       return
@@ -130,15 +125,10 @@ contains
     character(len=*), intent(in) :: name          !< parameter name
     integer, intent(out) :: values(:)             !< its values
     type(error_type), intent(inout) :: error      !< status
-    integer :: i, first, last
+    integer :: first, last
     values = 0
-    i = findloc_name(block%int_names, name)
-    if (i == 0) then
-      call missing(block, name, error)
-      return
-    end if
-    first = block%int_first(i)
-    last = block%int_first(i + 1) - 1
+    call locate(block, block%int_names, block%int_first, name, first, last, error)
+    if (error%code /= 0) return
     if (last - first + 1 /= size(values)) then
       call wrong_size(block, name, last - first + 1, size(values), error)
       return
@@ -152,15 +142,10 @@ contains
     character(len=*), intent(in) :: name          !< parameter name
     character(len=:), allocatable, intent(out) :: value  !< the word ('' if missing)
     type(error_type), intent(inout) :: error      !< status: missing, or not character codes
-    integer :: i, first, last, k
+    integer :: first, last, k
     value = ''
-    i = findloc_name(block%int_names, name)
-    if (i == 0) then
-      call missing(block, name, error)
-      return
-    end if
-    first = block%int_first(i)
-    last = block%int_first(i + 1) - 1
+    call locate(block, block%int_names, block%int_first, name, first, last, error)
+    if (error%code /= 0) return
     if (any(block%ints(first:last) < 32) .or. any(block%ints(first:last) > 126)) then
       call fatal_error(error, block%owner//': parameter '''//name//''' is not a word (printable character codes)')
       return
@@ -170,6 +155,26 @@ contains
       value(k - first + 1:k - first + 1) = achar(block%ints(k))
     end do
   end subroutine get_word
+
+  !> Where the array `name` of one kind (the names and starts of the reals or of the integers)
+  !> lies in its values: first, last; a missing name is the error.
+  subroutine locate(block, names, starts, name, first, last, error)
+    type(parameter_block), intent(in) :: block    !< the block (for the message)
+    character(len=NAME_LEN), intent(in) :: names(:)  !< the kind's names
+    integer, intent(in) :: starts(:)              !< the kind's starts, last = end + 1
+    character(len=*), intent(in) :: name          !< parameter name
+    integer, intent(out) :: first, last           !< its range in the kind's values
+    type(error_type), intent(inout) :: error      !< status: missing
+    integer :: i
+    first = 1; last = 0
+    i = findloc_name(names, name)
+    if (i == 0) then
+      call missing(block, name, error)
+      return
+    end if
+    first = starts(i)
+    last = starts(i + 1) - 1
+  end subroutine locate
 
   pure integer function findloc_name(names, name) result(i)
     character(len=NAME_LEN), intent(in) :: names(:)
