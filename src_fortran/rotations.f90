@@ -7,7 +7,7 @@ module rotorcable_rotations
   use rotorcable_kinds, only: dp
   implicit none
   private
-  public :: rot_y, rot_z, cross, skew, vee, identity3, rotation_log, rotation_exp
+  public :: rot_y, rot_z, cross, skew, vee, identity3, rotation_log, rotation_exp, transposed_times
 
 contains
 
@@ -58,6 +58,17 @@ contains
     real(dp) :: w(3)
     w = [m(3, 2), m(1, 3), m(2, 1)]
   end function vee
+
+  !> a^T x for a 3x3 matrix, written out: gfortran calls the library for matmul(transpose(a), x)
+  !> even at fixed size (callgrind: ~280 instructions a call against ~15 of arithmetic).
+  pure function transposed_times(a, x) result(y)
+    real(dp), intent(in) :: a(3, 3)    !< matrix
+    real(dp), intent(in) :: x(3)       !< vector
+    real(dp) :: y(3)
+    y(1) = a(1, 1)*x(1) + a(2, 1)*x(2) + a(3, 1)*x(3)
+    y(2) = a(1, 2)*x(1) + a(2, 2)*x(2) + a(3, 2)*x(3)
+    y(3) = a(1, 3)*x(1) + a(2, 3)*x(2) + a(3, 3)*x(3)
+  end function transposed_times
 
   !> 3x3 identity.
   pure function identity3() result(m)

@@ -137,17 +137,23 @@ def test_flight_sensitivities_are_written(flight_case):
 def test_monodromy_and_krylov_periodic_starts_agree():
     # The periodic start's sensitivity by the monodromy's direct solve (floquet on: Phi is there;
     # shooting: its last iterate's) and by GMRES on one-revolution products (marching, floquet
-    # off) at the deck's rtol 1e-6 and periodic_tol 1e-7 m (the three periodic states, and so the
-    # selections of peaks and cycles, alike): they carry the integration error, relative to the
-    # largest of each family.
+    # off).  The three are different integrations, so they differ by integration error: at the
+    # deck's rtol 1e-6 that was 4.4e-5 of the largest of a family, and a round-off change of a
+    # load (the rotation springs' kernels, 2026-11-26) moved it to 1.3e-4 -- the comparison then
+    # measures the integrator's path, not the periodic start.  At rtol 1e-8 (atol 1e-10) and
+    # periodic_tol 1e-9 m the integration error is ~100x smaller, far below the bound; what is
+    # left is what the test is about: the two ways of solving (I - Psi) s* = dX(T)/dp.
     model = Model.from_deck(INPUTS / "uh60_part2_forward_flight_cable.nml").with_changes(
-        {"refinement.levels": 1, "design.parameters": ["drag.cd"], "solver.periodic_tol": 1.0e-7})
+        {"refinement.levels": 1, "design.parameters": ["drag.cd"], "solver.periodic_tol": 1.0e-9,
+         "solver.rtol": 1.0e-8, "solver.atol": 1.0e-10})
     cases = {"floquet": {"solver.floquet": True}, "krylov": {"solver.floquet": False},
              "shooting": {"solver.floquet": False, "solver.periodic_method": "shooting"}}
     runs = {k: pydriver.run_deck(model.with_changes(c)).summary["sensitivities"] for k, c in cases.items()}
     assert [runs[k]["solver"]["periodic_start"] for k in cases] == ["monodromy", "krylov", "monodromy"]
-    # s(T) = s(0): measured 2.7e-5 and 2.3e-5 (monodromy, in its coordinates) and 3.6e-6 (GMRES).
-    assert all(r["periodicity_residual"] < 1e-4 for r in runs.values())
+    # s(T) = s(0), relative to the start sensitivity (the integration error of one revolution):
+    # measured 4.0e-7, 1.5e-13 (GMRES closes the loop by construction), 4.2e-7.
+    print("periodicity residuals:", {k: f"{r['periodicity_residual']:.1e}" for k, r in runs.items()})
+    assert all(r["periodicity_residual"] < 1e-5 for r in runs.values())
     ref = runs["krylov"]["d_output_d_parameter"]
     scale = {}
     for name in ref:
@@ -156,7 +162,9 @@ def test_monodromy_and_krylov_periodic_starts_agree():
         d = runs[k]["d_output_d_parameter"]
         errs = [abs(d[n]["drag.cd"] - ref[n]["drag.cd"]) / scale[family(n)] for n in ref]
         print(f"{k} against Krylov periodic start: worst relative difference {max(errs):.1e}")
-        assert max(errs) < 1e-4, (k, max(errs))          # measured 3.7e-5 (floquet), 4.4e-5 (shooting)
+        # Measured 8.2e-8 (floquet) and 7.1e-7 (shooting): the bound 1e-5 leaves a factor 14 for
+        # another CPU's rounding and integration path, and is 10x inside the issue's 1e-4.
+        assert max(errs) < 1e-5, (k, max(errs))
 
 
 def test_periodic_start_of_constraint_and_speed_parameters_by_monodromy_and_krylov():

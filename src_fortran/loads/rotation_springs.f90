@@ -29,7 +29,7 @@ module rotorcable_loads_rotation_springs
   use rotorcable_kinematics, only: chain_state
   use rotorcable_kinematics_tangent, only: chain_tangent
   use rotorcable_frame, only: frame_state
-  use rotorcable_rotations, only: skew, vee, identity3, cross
+  use rotorcable_rotations, only: skew, identity3, cross, transposed_times
   use rotorcable_loads_type, only: load_term, load_slot
   use rotorcable_parameter_block, only: parameter_block, get_reals
   implicit none
@@ -91,50 +91,93 @@ contains
     integer, intent(in) :: j                  !< joint
     real(dp), intent(in) :: q(:)              !< coordinates [rad]
     real(dp) :: phi(3)
-    real(dp) :: angles(MAX_JOINT_DOF), r(3, 3), axis_sin(3), s, c, angle
+    phi = rotation_vector(relative_rotation(chain, j, q))
+  end function joint_rotation_vector
+
+  !> R_rel = Rx(q1) Ry(q2) Rz(q3) of the xyz joint j.
+  pure function relative_rotation(chain, j, q) result(r)
+    type(chain_type), intent(in) :: chain     !< chain description
+    integer, intent(in) :: j                  !< joint
+    real(dp), intent(in) :: q(:)              !< coordinates [rad]
+    real(dp) :: r(3, 3)
+    real(dp) :: angles(MAX_JOINT_DOF)
     angles = 0.0_dp
     angles(1:3) = q(chain%first_coord(j):chain%first_coord(j) + 2)
     r = joint_rotation(JOINT_XYZ, angles)
-    axis_sin = 0.5_dp*vee(r - transpose(r))             ! sin(angle) * axis
+  end function relative_rotation
+
+  !> log(R) by atan2 of the skew and the trace parts (module comment of joint_rotation_vector).
+  pure function rotation_vector(r) result(phi)
+    real(dp), intent(in) :: r(3, 3)           !< rotation matrix
+    real(dp) :: phi(3)
+    real(dp) :: axis_sin(3), s, c
+    axis_sin = 0.5_dp*[r(3, 2) - r(2, 3), r(1, 3) - r(3, 1), r(2, 1) - r(1, 2)]   ! sin(angle) * axis
     s = norm2(axis_sin)
     c = 0.5_dp*(r(1, 1) + r(2, 2) + r(3, 3) - 1.0_dp)
-    angle = atan2(s, c)
     if (s > 1.0e-300_dp) then
-      phi = angle/s*axis_sin
+      phi = atan2(s, c)/s*axis_sin
     else
       phi = 0.0_dp
     end if
-  end function joint_rotation_vector
+  end function rotation_vector
 
-  !> J_r^-1(phi) = I + skew(phi)/2 + (1/a^2 - (1 + cos a)/(2 a sin a)) skew(phi)^2, a = |phi|;
-  !> the last coefficient by its series 1/12 + a^2/720 below a = 1e-3 (cancellation).
+  !> What joint j's springs need at its angles: phi = log(R_rel), the coefficient c(|phi|) of
+  !> J_r^-1 with dc/da, and A, the joint axes in the child's frame (w = A qdot is the relative
+  !> angular velocity in the child's axes).  For the xyz joint A = [R_rel^T e_x, (sin q3,
+  !> cos q3, 0), e_z] (joint_axes: x of the parent, y after the first turn, z of the child), a
+  !> function of the joint's own angles, so the frames are not needed: the library matmul on
+  !> their array sections cost more than the arithmetic (callgrind, 2026-11-26).
+  pure subroutine joint_terms(chain, j, q, phi, a, c, dc_da)
+    type(chain_type), intent(in) :: chain     !< chain description
+    integer, intent(in) :: j                  !< joint
+    real(dp), intent(in) :: q(:)              !< coordinates [rad]
+    real(dp), intent(out) :: phi(3)           !< rotation vector [rad]
+    real(dp), intent(out) :: a(3, 3)          !< joint axes in the child's frame
+    real(dp), intent(out) :: c, dc_da         !< J_r^-1's coefficient and its derivative
+    real(dp) :: r(3, 3), psi
+    r = relative_rotation(chain, j, q)
+    phi = rotation_vector(r)
+    psi = q(chain%first_coord(j) + 2)
+    a(:, 1) = r(1, :)
+    a(:, 2) = [sin(psi), cos(psi), 0.0_dp]
+    a(:, 3) = [0.0_dp, 0.0_dp, 1.0_dp]
+    call jacobian_coefficient(norm2(phi), c, dc_da)
+  end subroutine joint_terms
+
+  !> J_r^-1(phi) = I + skew(phi)/2 + c(|phi|) skew(phi)^2 (jacobian_coefficient).
   pure function right_jacobian_inverse(phi) result(jinv)
     real(dp), intent(in) :: phi(3)            !< rotation vector [rad]
     real(dp) :: jinv(3, 3)
-    real(dp) :: a, coef, p(3, 3)
-    a = norm2(phi)
-    if (a < 1.0e-3_dp) then
-      coef = 1.0_dp/12.0_dp + a**2/720.0_dp
-    else
-      coef = 1.0_dp/a**2 - (1.0_dp + cos(a))/(2.0_dp*a*sin(a))
-    end if
+    real(dp) :: coef, dcoef, p(3, 3)
+    call jacobian_coefficient(norm2(phi), coef, dcoef)
     p = skew(phi)
     jinv = identity3() + 0.5_dp*p + coef*matmul(p, p)
   end function right_jacobian_inverse
 
+  !> J_r^-T(phi) K phi = K phi - phi x K phi / 2 + c phi x (phi x K phi), written with cross
+  !> products (skew(phi)^T = -skew(phi)).
+  pure function spring_moment(phi, kphi, c) result(g)
+    real(dp), intent(in) :: phi(3), kphi(3)   !< rotation vector, K phi
+    real(dp), intent(in) :: c                 !< J_r^-1's coefficient
+    real(dp) :: g(3)
+    real(dp) :: pk(3)
+    pk = cross(phi, kphi)
+    g = kphi - 0.5_dp*pk + c*cross(phi, pk)
+  end function spring_moment
+
   pure subroutine add_forces(self, chain, st, fs, t, q, v, force, moment, tau)
     class(rotation_springs_load), intent(in) :: self
     include 'force_arguments.inc'
-    real(dp) :: phi(3), a(3, 3), w(3), torque(3)
+    real(dp) :: phi(3), a(3, 3), rates(3), w(3), torque(3), c, dc_da
     integer :: j, i0
     do j = 1, chain%n_bodies
       if (chain%locked(j)) cycle
       i0 = chain%first_coord(j)
-      phi = joint_rotation_vector(chain, j, q)
-      a = matmul(transpose(st%rot(:, :, j)), st%axes(:, 1:3, j))
-      w = matmul(a, v(i0:i0 + 2))
-      torque = matmul(transpose(right_jacobian_inverse(phi)), self%stiffness(:, j)*phi) + self%damping(:, j)*w
-      tau(i0:i0 + 2) = tau(i0:i0 + 2) - matmul(transpose(a), torque)
+      call joint_terms(chain, j, q, phi, a, c, dc_da)
+      rates = v(i0:i0 + 2)                    ! a fixed-size copy: matmul is inlined, not a library call
+      w = matmul(a, rates)
+      torque = spring_moment(phi, self%stiffness(:, j)*phi, c) + self%damping(:, j)*w
+      tau(i0:i0 + 2) = tau(i0:i0 + 2) - transposed_times(a, torque)
     end do
   end subroutine add_forces
 
@@ -144,41 +187,42 @@ contains
   pure subroutine jacobian_coefficient(a, c, dc_da)
     real(dp), intent(in) :: a
     real(dp), intent(out) :: c, dc_da
-    real(dp) :: cot_half
+    real(dp) :: cot_half, sin_half
     if (a < 1.0e-3_dp) then
       c = 1.0_dp/12.0_dp + a**2/720.0_dp
       dc_da = a/360.0_dp
     else
-      cot_half = cos(0.5_dp*a)/sin(0.5_dp*a)
+      sin_half = sin(0.5_dp*a)
+      cot_half = cos(0.5_dp*a)/sin_half
       c = 1.0_dp/a**2 - cot_half/(2.0_dp*a)
-      dc_da = -2.0_dp/a**3 + (a/sin(0.5_dp*a)**2 + 2.0_dp*cot_half)/(4.0_dp*a**2)
+      dc_da = -2.0_dp/a**3 + (a/sin_half**2 + 2.0_dp*cot_half)/(4.0_dp*a**2)
     end if
   end subroutine jacobian_coefficient
 
   !> Tangent of tau_j = -A^T (g(phi) + D A qdot_j), g = J_r^-T K phi = K phi - phi x K phi / 2
-  !> + c phi x (phi x K phi), for the joint's own (dq, dv): with the relative rotation's change
-  !> A dq in the child's axes, dphi = J_r^-1(phi) A dq; A = R_c^T (axes) changes by
-  !> R_c^T (da_l - dtheta_c x a_l), which depends on the joint's own dq only.
+  !> + c phi x (phi x K phi), for the joint's own (dq, dv).  With delta = A dq the relative
+  !> rotation's change in the child's axes (dR_rel = R_rel [delta]x): dphi = J_r^-1(phi) delta,
+  !> and A (joint_terms) changes by dA = [A_1 x delta, (A_2 x e_z) dq_3, 0] (d(R^T e) = R^T e x
+  !> delta for the first column; the second is R_yz^T e_y, which turns by A_2 dq_2 + e_z dq_3).
   pure subroutine add_force_tangent(self, chain, st, dst, fs, t, q, v, dq, dv, dforce, dmoment, dtau)
     class(rotation_springs_load), intent(in) :: self
     include 'force_tangent_arguments.inc'
-    real(dp) :: phi(3), dphi(3), a(3, 3), da(3, 3), rc(3, 3), kphi(3), dkphi(3), pk(3), w(3), dw(3)
-    real(dp) :: g(3), dg(3), torque(3), dtorque(3), th(3), ax(3), c, dc_da, dc, size_phi
-    integer :: j, i0, l
+    real(dp) :: phi(3), dphi(3), a(3, 3), da(3, 3), kphi(3), dkphi(3), pk(3), delta(3), w(3), dw(3)
+    real(dp) :: g(3), dg(3), torque(3), dtorque(3), c, dc_da, dc, size_phi, rates(3), d_angles(3), d_rates(3)
+    integer :: j, i0
     do j = dst%first, chain%n_bodies
       if (chain%locked(j)) cycle
       i0 = chain%first_coord(j)
-      rc = st%rot(:, :, j)
-      th = dst%dtheta(:, j)
-      a = matmul(transpose(rc), st%axes(:, 1:3, j))
-      do l = 1, 3
-        ax = st%axes(:, l, j)
-        da(:, l) = matmul(dst%daxes(:, l, j) - cross(th, ax), rc)
-      end do
-      phi = joint_rotation_vector(chain, j, q)
-      dphi = matmul(right_jacobian_inverse(phi), matmul(a, dq(i0:i0 + 2)))
+      call joint_terms(chain, j, q, phi, a, c, dc_da)
+      ! Fixed-size copies: matmul on them is inlined, not a library call.
+      rates = v(i0:i0 + 2); d_angles = dq(i0:i0 + 2); d_rates = dv(i0:i0 + 2)
+      delta = matmul(a, d_angles)
+      da(:, 1) = cross(a(:, 1), delta)
+      da(:, 2) = [a(2, 2), -a(1, 2), 0.0_dp]*d_angles(3)
+      da(:, 3) = 0.0_dp
+      pk = cross(phi, delta)
+      dphi = delta + 0.5_dp*pk + c*cross(phi, pk)
       size_phi = norm2(phi)
-      call jacobian_coefficient(size_phi, c, dc_da)
       dc = 0.0_dp
       if (size_phi > 0.0_dp) dc = dc_da*dot_product(phi, dphi)/size_phi
       kphi = self%stiffness(:, j)*phi
@@ -187,11 +231,11 @@ contains
       g = kphi - 0.5_dp*pk + c*cross(phi, pk)
       dg = dkphi - 0.5_dp*(cross(dphi, kphi) + cross(phi, dkphi)) + dc*cross(phi, pk) &
            + c*(cross(dphi, pk) + cross(phi, cross(dphi, kphi) + cross(phi, dkphi)))
-      w = matmul(a, v(i0:i0 + 2))
-      dw = matmul(da, v(i0:i0 + 2)) + matmul(a, dv(i0:i0 + 2))
+      w = matmul(a, rates)
+      dw = matmul(da, rates) + matmul(a, d_rates)
       torque = g + self%damping(:, j)*w
       dtorque = dg + self%damping(:, j)*dw
-      dtau(i0:i0 + 2) = dtau(i0:i0 + 2) - matmul(transpose(da), torque) - matmul(transpose(a), dtorque)
+      dtau(i0:i0 + 2) = dtau(i0:i0 + 2) - transposed_times(da, torque) - transposed_times(a, dtorque)
     end do
   end subroutine add_force_tangent
 
