@@ -78,19 +78,14 @@ contains
   !> 'springs.stiffness' or 'springs.damping': every entry is a coordinate's.
   subroutine set_parameter(self, name, values, found, error)
     class(joint_springs_load), intent(inout) :: self
-    character(len=*), intent(in) :: name
-    real(dp), intent(in) :: values(:)
-    logical, intent(out) :: found
-    type(error_type), intent(inout) :: error
+    include 'set_parameter_arguments.inc'
     call set_spring_constants(name, values, spread(.true., 1, size(self%stiffness)), self%stiffness, self%damping, &
                               found, error)
   end subroutine set_parameter
 
   subroutine get_parameter(self, name, values, found)
     class(joint_springs_load), intent(in) :: self
-    character(len=*), intent(in) :: name
-    real(dp), allocatable, intent(out) :: values(:)
-    logical, intent(out) :: found
+    include 'get_parameter_arguments.inc'
     call get_spring_constants(name, spread(.true., 1, size(self%stiffness)), self%stiffness, self%damping, values, found)
   end subroutine get_parameter
 

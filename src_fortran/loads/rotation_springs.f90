@@ -228,18 +228,13 @@ contains
   !> entries of the free joints' columns).
   subroutine set_parameter(self, name, values, found, error)
     class(rotation_springs_load), intent(inout) :: self
-    character(len=*), intent(in) :: name
-    real(dp), intent(in) :: values(:)
-    logical, intent(out) :: found
-    type(error_type), intent(inout) :: error
+    include 'set_parameter_arguments.inc'
     call set_spring_constants(name, values, [spread(self%free, 1, 3)], self%stiffness, self%damping, found, error)
   end subroutine set_parameter
 
   subroutine get_parameter(self, name, values, found)
     class(rotation_springs_load), intent(in) :: self
-    character(len=*), intent(in) :: name
-    real(dp), allocatable, intent(out) :: values(:)
-    logical, intent(out) :: found
+    include 'get_parameter_arguments.inc'
     call get_spring_constants(name, [spread(self%free, 1, 3)], self%stiffness, self%damping, values, found)
   end subroutine get_parameter
 
