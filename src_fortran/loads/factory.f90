@@ -1,12 +1,13 @@
 !> The load factory: a load kind named in the model description -> its constructor, which reads
 !> its values by name from the load's parameter block.  A new load is one new file in
-!> src_fortran/loads/ plus its lines here, its declaration in pydriver/components.py and its
-!> keys in the deck schema, pydriver/schema.py.
+!> src_fortran/loads/ plus its entry in the table below, its declaration in
+!> pydriver/components.py and its keys in the deck schema, pydriver/schema.py.
 module rotorcable_loads_factory
-  use rotorcable_errors, only: error_type, fatal_error
+  use rotorcable_errors, only: error_type
   use rotorcable_chain, only: chain_type
   use rotorcable_loads_type, only: load_slot
   use rotorcable_parameter_block, only: parameter_block
+  use rotorcable_component_kinds, only: find_kind
   use rotorcable_loads_gravity, only: new_gravity
   use rotorcable_loads_pulse, only: new_pulse
   use rotorcable_loads_tip_force, only: new_tip_force
@@ -18,6 +19,20 @@ module rotorcable_loads_factory
   private
   public :: new_load
 
+  abstract interface
+    !> Every load's constructor (their dummy arguments are declared once, in the include).
+    subroutine load_constructor(slot, chain, params, error)
+      import :: load_slot, chain_type, parameter_block, error_type
+      include 'constructor_arguments.inc'
+    end subroutine load_constructor
+  end interface
+
+  !> One entry of the table of load kinds.
+  type :: load_kind
+    character(len=32) :: name = ''           !< the kind's word in the model description
+    procedure(load_constructor), pointer, nopass :: build => null()  !< its constructor
+  end type load_kind
+
 contains
 
   !> Build the load `kind` from its parameter block.
@@ -27,24 +42,16 @@ contains
     type(chain_type), intent(in) :: chain     !< chain description
     type(parameter_block), intent(in) :: params  !< its parameters by name
     type(error_type), intent(inout) :: error  !< status
-    select case (kind)
-    case ('gravity')
-      call new_gravity(slot, chain, params, error)
-    case ('pulse')
-      call new_pulse(slot, chain, params, error)
-    case ('tip_force')
-      call new_tip_force(slot, chain, params, error)
-    case ('joint_springs')
-      call new_joint_springs(slot, chain, params, error)
-    case ('rotation_springs')
-      call new_rotation_springs(slot, chain, params, error)
-    case ('drag')
-      call new_drag(slot, chain, params, error)
-    case ('anchor')
-      call new_anchor(slot, chain, params, error)
-    case default
-      call fatal_error(error, 'unknown load kind '''//kind//'''')
-    end select
+    type(load_kind) :: kinds(7)
+    integer :: i
+    ! Built here, not a named constant: gfortran 12 does not take a procedure as a constant
+    ! structure constructor's component (Fortran 2008 allows it).
+    kinds = [load_kind('gravity', new_gravity), load_kind('pulse', new_pulse), &
+             load_kind('tip_force', new_tip_force), load_kind('joint_springs', new_joint_springs), &
+             load_kind('rotation_springs', new_rotation_springs), load_kind('drag', new_drag), &
+             load_kind('anchor', new_anchor)]
+    call find_kind(kinds%name, kind, 'load', i, error)
+    if (i > 0) call kinds(i)%build(slot, chain, params, error)
   end subroutine new_load
 
 end module rotorcable_loads_factory

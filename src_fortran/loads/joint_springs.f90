@@ -2,16 +2,17 @@
 !> torque pair along a joint axis does power only on that axis's own rate, so the spring
 !> moments project onto the coordinates diagonally: Q = -c (q - q_rest) - d qdot; potential
 !> sum c (q - q_rest)^2 / 2.  Parameters: stiffness, damping, rest (nq each).
-!> Updatable: 'springs.stiffness' c(1:nq), 'springs.damping' d(1:nq).
+!> Updatable: 'springs.stiffness' c(1:nq), 'springs.damping' d(1:nq) (rotorcable_loads_spring_constants).
 module rotorcable_loads_joint_springs
   use rotorcable_kinds, only: dp
-  use rotorcable_errors, only: error_type, fatal_error
+  use rotorcable_errors, only: error_type
   use rotorcable_chain, only: chain_type
   use rotorcable_kinematics, only: chain_state
   use rotorcable_kinematics_tangent, only: chain_tangent
   use rotorcable_frame, only: frame_state
   use rotorcable_loads_type, only: load_term, load_slot
   use rotorcable_parameter_block, only: parameter_block, get_reals
+  use rotorcable_loads_spring_constants, only: set_spring_constants, get_spring_constants
   implicit none
   private
   public :: joint_springs_load, new_joint_springs
@@ -74,39 +75,18 @@ contains
     damping = damping + self%damping
   end subroutine joint_diagonal
 
-  !> 'springs.stiffness' or 'springs.damping': one value per coordinate.
+  !> 'springs.stiffness' or 'springs.damping': every entry is a coordinate's.
   subroutine set_parameter(self, name, values, found, error)
     class(joint_springs_load), intent(inout) :: self
-    character(len=*), intent(in) :: name
-    real(dp), intent(in) :: values(:)
-    logical, intent(out) :: found
-    type(error_type), intent(inout) :: error
-    found = name == 'springs.stiffness' .or. name == 'springs.damping'
-    if (.not. found) return
-    if (size(values) /= size(self%stiffness)) then
-      call fatal_error(error, 'model parameter '''//name//''' takes one value per coordinate')
-    else if (name == 'springs.stiffness') then
-      self%stiffness = values
-    else
-      self%damping = values
-    end if
+    include 'set_parameter_arguments.inc'
+    call set_spring_constants(name, values, spread(.true., 1, size(self%stiffness)), self%stiffness, self%damping, &
+                              found, error)
   end subroutine set_parameter
 
   subroutine get_parameter(self, name, values, found)
     class(joint_springs_load), intent(in) :: self
-    character(len=*), intent(in) :: name
-    real(dp), allocatable, intent(out) :: values(:)
-    logical, intent(out) :: found
-    found = .true.
-    select case (name)
-    case ('springs.stiffness')
-      values = self%stiffness
-    case ('springs.damping')
-      values = self%damping
-    case default
-      found = .false.
-      allocate (values(0))
-    end select
+    include 'get_parameter_arguments.inc'
+    call get_spring_constants(name, spread(.true., 1, size(self%stiffness)), self%stiffness, self%damping, values, found)
   end subroutine get_parameter
 
 end module rotorcable_loads_joint_springs

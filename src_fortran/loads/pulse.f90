@@ -80,10 +80,7 @@ contains
   !> 'loads.pulse': 1 switches the pulse on, 0 off.
   subroutine set_parameter(self, name, values, found, error)
     class(pulse_load), intent(inout) :: self
-    character(len=*), intent(in) :: name
-    real(dp), intent(in) :: values(:)
-    logical, intent(out) :: found
-    type(error_type), intent(inout) :: error
+    include 'set_parameter_arguments.inc'
     found = name == 'loads.pulse'
     if (.not. found) return
     if (size(values) /= 1) then
@@ -100,9 +97,7 @@ contains
 
   subroutine get_parameter(self, name, values, found)
     class(pulse_load), intent(in) :: self
-    character(len=*), intent(in) :: name
-    real(dp), allocatable, intent(out) :: values(:)
-    logical, intent(out) :: found
+    include 'get_parameter_arguments.inc'
     found = name == 'loads.pulse'
     if (found) then
       values = [merge(1.0_dp, 0.0_dp, self%enabled)]

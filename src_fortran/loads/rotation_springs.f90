@@ -20,7 +20,8 @@
 !>
 !> Parameters: stiffness K(3, j) and damping D(3, j) of every free joint j, in joint order.
 !> Updatable: 'springs.stiffness' (K(3, j) for every free joint j, in joint order: one value per
-!> coordinate, as the joint springs take them) and 'springs.damping' (D likewise).
+!> coordinate, as the joint springs take them) and 'springs.damping' (D likewise), through
+!> rotorcable_loads_spring_constants.
 module rotorcable_loads_rotation_springs
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error
@@ -32,6 +33,7 @@ module rotorcable_loads_rotation_springs
   use rotorcable_rotations, only: skew, identity3, cross, transposed_times
   use rotorcable_loads_type, only: load_term, load_slot
   use rotorcable_parameter_block, only: parameter_block, get_reals
+  use rotorcable_loads_spring_constants, only: set_spring_constants, get_spring_constants
   implicit none
   private
   public :: rotation_springs_load, new_rotation_springs, joint_rotation_vector, right_jacobian_inverse
@@ -266,54 +268,18 @@ contains
     end do
   end subroutine joint_diagonal
 
-  !> 'springs.stiffness' or 'springs.damping': 3 values per free joint, in joint order.
+  !> 'springs.stiffness' or 'springs.damping': 3 values per free joint, in joint order (the
+  !> entries of the free joints' columns).
   subroutine set_parameter(self, name, values, found, error)
     class(rotation_springs_load), intent(inout) :: self
-    character(len=*), intent(in) :: name
-    real(dp), intent(in) :: values(:)
-    logical, intent(out) :: found
-    type(error_type), intent(inout) :: error
-    found = name == 'springs.stiffness' .or. name == 'springs.damping'
-    if (.not. found) return
-    if (size(values) /= 3*count(self%free)) then
-      call fatal_error(error, 'model parameter '''//name//''' takes 3 values per free joint')
-    else if (name == 'springs.stiffness') then
-      call scatter_free(self%free, values, self%stiffness)
-    else
-      call scatter_free(self%free, values, self%damping)
-    end if
+    include 'set_parameter_arguments.inc'
+    call set_spring_constants(name, values, [spread(self%free, 1, 3)], self%stiffness, self%damping, found, error)
   end subroutine set_parameter
 
   subroutine get_parameter(self, name, values, found)
     class(rotation_springs_load), intent(in) :: self
-    character(len=*), intent(in) :: name
-    real(dp), allocatable, intent(out) :: values(:)
-    logical, intent(out) :: found
-    found = .true.
-    select case (name)
-    case ('springs.stiffness')
-      values = reshape(pack(self%stiffness, spread(self%free, 1, 3)), [3*count(self%free)])
-    case ('springs.damping')
-      values = reshape(pack(self%damping, spread(self%free, 1, 3)), [3*count(self%free)])
-    case default
-      found = .false.
-      allocate (values(0))
-    end select
+    include 'get_parameter_arguments.inc'
+    call get_spring_constants(name, [spread(self%free, 1, 3)], self%stiffness, self%damping, values, found)
   end subroutine get_parameter
-
-  !> Columns of a (3, n) array for the free joints from their values in joint order (the locked
-  !> joints' columns stay 0).
-  pure subroutine scatter_free(free, values, columns)
-    logical, intent(in) :: free(:)            !< (n) joint j has coordinates
-    real(dp), intent(in) :: values(:)         !< 3 per free joint
-    real(dp), intent(inout) :: columns(:, :)  !< (3, n)
-    integer :: j, k
-    k = 0
-    do j = 1, size(free)
-      if (.not. free(j)) cycle
-      columns(:, j) = values(3*k + 1:3*k + 3)
-      k = k + 1
-    end do
-  end subroutine scatter_free
 
 end module rotorcable_loads_rotation_springs

@@ -94,18 +94,13 @@ contains
 
   subroutine no_set_parameter(self, name, values, found, error)
     class(load_term), intent(inout) :: self   !< the load
-    character(len=*), intent(in) :: name      !< parameter name, e.g. 'loads.pulse'
-    real(dp), intent(in) :: values(:)         !< its new value(s)
-    logical, intent(out) :: found             !< the load has this parameter
-    type(error_type), intent(inout) :: error  !< status (a value the load refuses)
+    include 'set_parameter_arguments.inc'
     found = .false.
   end subroutine no_set_parameter
 
   subroutine no_get_parameter(self, name, values, found)
     class(load_term), intent(in) :: self      !< the load
-    character(len=*), intent(in) :: name      !< parameter name
-    real(dp), allocatable, intent(out) :: values(:)  !< its value(s)
-    logical, intent(out) :: found             !< the load has this parameter
+    include 'get_parameter_arguments.inc'
     allocate (values(0))
     found = .false.
   end subroutine no_get_parameter

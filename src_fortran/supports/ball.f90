@@ -9,6 +9,10 @@
 !> rotorcable_supports_tip_point).  The multipliers are the force on the tip:
 !> F_B = lambda, M_B = 0 (eq. 3.50: G^T lambda is the generalized force of F_B at P_{n+1}).
 !> Parameters: position(3) [m], and its motion under 'motion.' (rotorcable_motion_builder).
+!>
+!> Clamp B is a ball support plus orientation rows (rotorcable_supports_clamp extends this
+!> type): the position rows, the point's pose and motion and its parameters are written here
+!> once, and the clamp's procedures call these for them and add their rows 4:6.
 module rotorcable_supports_ball
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type
@@ -25,7 +29,7 @@ module rotorcable_supports_ball
                                            tip_acceleration, tip_velocity_tangent
   implicit none
   private
-  public :: ball_support, new_ball
+  public :: ball_support, new_ball, read_tip_point
 
   !> Ball B.
   type, extends(support_type) :: ball_support
@@ -55,6 +59,8 @@ module rotorcable_supports_ball
     procedure :: reach_target
     procedure :: motion_twist
     procedure :: free
+    !> Take the pose and motion at a state of the prescribed motion (update's second half).
+    procedure :: follow
   end type ball_support
 
 contains
@@ -66,34 +72,48 @@ contains
     type(parameter_block), intent(in) :: params  !< its parameters
     type(error_type), intent(inout) :: error  !< status
     type(ball_support) :: ball
-    call get_reals(params, 'position', ball%position_ref, error)
-    call motion_from_block(params, 'motion.', ball%motion, error)
+    call read_tip_point(ball, params, 'ball B', 'ball_b.position', error)
     if (error%code /= 0) return
-    ball%label = 'ball B'
-    ball%position_key = 'ball_b.position'
-    ball%position = ball%position_ref
-    ball%true_position = ball%position_ref
     allocate (support, source=ball)
   end subroutine new_ball
+
+  !> The point p_B (its reference position and its motion) from a support's parameter block,
+  !> and the names messages give the support; clamp B reads its position part here too.
+  subroutine read_tip_point(ball, params, label, position_key, error)
+    class(ball_support), intent(inout) :: ball   !< ball or clamp being built
+    type(parameter_block), intent(in) :: params  !< position, motion.*
+    character(len=*), intent(in) :: label     !< name in messages ('ball B')
+    character(len=*), intent(in) :: position_key  !< deck key of the position
+    type(error_type), intent(inout) :: error  !< status
+    call get_reals(params, 'position', ball%position_ref, error)
+    call motion_from_block(params, 'motion.', ball%motion, error)
+    ball%label = label
+    ball%position_key = position_key
+    ball%position = ball%position_ref
+    ball%true_position = ball%position_ref
+  end subroutine read_tip_point
 
   pure integer function rows(self)
     class(ball_support), intent(in) :: self
     rows = 3
   end function rows
 
+  !> A motion without hinges is the identity state (motion_at), which leaves p_B at its
+  !> reference position at rest: one path serves fixed and moving supports alike.
   subroutine update(self, t, rs)
     class(ball_support), intent(inout) :: self
     real(dp), intent(in) :: t
     type(rotor_state), intent(in) :: rs
-    type(motion_state) :: ms
-    if (size(self%motion%hinges) > 0) then
-      ms = motion_at(self%motion, t, rs)
-      call point_motion(ms, self%position_ref, self%position, self%lin_velocity, self%lin_acceleration)
-    else
-      self%position = self%position_ref
-    end if
-    self%true_position = self%position
+    call self%follow(motion_at(self%motion, t, rs))
   end subroutine update
+
+  !> p_B, v_B, a_B of the reference point moved by the motion state ms.
+  subroutine follow(self, ms)
+    class(ball_support), intent(inout) :: self  !< support
+    type(motion_state), intent(in) :: ms      !< the prescribed motion's state at the update's time
+    call point_motion(ms, self%position_ref, self%position, self%lin_velocity, self%lin_acceleration)
+    self%true_position = self%position
+  end subroutine follow
 
   pure subroutine residual(self, chain, st, g)
     class(ball_support), intent(in) :: self

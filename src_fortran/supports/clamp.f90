@@ -16,6 +16,12 @@
 !> force of that wrench).
 !> Parameters: position(3) [m], rotation(9) (R_B0 column by column), and its motion under
 !> 'motion.' (rotorcable_motion_builder).
+!>
+!> A clamp is ball B plus orientation rows, so clamp_support extends ball_support: the ball's
+!> procedures write the position rows 1:3 (and p_B's pose, motion and parameters), and each
+!> procedure here adds rows 4:6.  add_jacobian_transpose_times and its tangent are the clamp's
+!> own: they pass the force and the clamp's moment to the tip wrench together, one sweep over
+!> the bodies, where the ball's force-only sweep plus a moment sweep would be two.
 module rotorcable_supports_clamp
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type
@@ -24,35 +30,26 @@ module rotorcable_supports_clamp
   use rotorcable_kinematics_tangent, only: chain_tangent
   use rotorcable_frame, only: frame_state, relative_velocity, relative_acceleration
   use rotorcable_rotations, only: cross, skew, vee, identity3, rotation_log, rotation_exp
-  use rotorcable_motion_rotor, only: rotor_state
-  use rotorcable_motion_rigid_motion, only: rigid_motion, motion_state, motion_at, point_motion, motion_free
-  use rotorcable_motion_builder, only: motion_from_block
+  use rotorcable_motion_rigid_motion, only: motion_state
   use rotorcable_parameter_block, only: parameter_block, get_reals
   use rotorcable_supports_type, only: support_type
-  use rotorcable_supports_tip_point, only: tip_jacobian, add_tip_wrench, add_tip_wrench_tangent, tip_velocity, &
-                                           tip_acceleration, tip_velocity_tangent
+  use rotorcable_supports_ball, only: ball_support, read_tip_point
+  use rotorcable_supports_tip_point, only: add_tip_wrench, add_tip_wrench_tangent
   implicit none
   private
   public :: clamp_support, new_clamp
 
-  !> Clamp B.
-  type, extends(support_type) :: clamp_support
-    real(dp) :: position_ref(3) = 0.0_dp      !< p_B in the reference configuration [m]
+  !> Clamp B: ball B's point p_B (position_ref, motion, position, lin_velocity, ...) and R_B.
+  type, extends(ball_support) :: clamp_support
     real(dp) :: rotation_ref(3, 3) = 0.0_dp   !< R_B in the reference configuration
-    logical :: moving = .false.               !< prescribed motion present
-    type(rigid_motion) :: motion              !< prescribed motion
-    ! The pose and motion at the time of the last update (relative to the model frame):
-    real(dp) :: position(3) = 0.0_dp          !< p_B [m]
-    real(dp) :: rotation(3, 3) = 0.0_dp       !< R_B
-    real(dp) :: lin_velocity(3) = 0.0_dp      !< dp_B/dt [m/s]
-    real(dp) :: lin_acceleration(3) = 0.0_dp  !< d^2p_B/dt^2 [m/s^2]
+    ! The orientation at the time of the last update (relative to the model frame):
+    real(dp) :: rotation(3, 3) = 0.0_dp       !< R_B (blended during a continuation)
     real(dp) :: omega(3) = 0.0_dp             !< w_B [rad/s]
     real(dp) :: alpha(3) = 0.0_dp             !< dw_B/dt [rad/s^2]
-    real(dp) :: true_position(3) = 0.0_dp     !< p_B at the last update (position may be blended)
     real(dp) :: true_rotation(3, 3) = 0.0_dp  !< R_B at the last update
   contains
     procedure :: rows
-    procedure :: update
+    procedure :: follow
     procedure :: residual
     procedure :: jacobian
     procedure :: add_jacobian_transpose_times
@@ -68,7 +65,6 @@ module rotorcable_supports_clamp
     procedure :: blend_target
     procedure :: reach_target
     procedure :: motion_twist
-    procedure :: free
   end type clamp_support
 
 contains
@@ -81,22 +77,12 @@ contains
     type(error_type), intent(inout) :: error  !< status
     type(clamp_support) :: clamp
     real(dp) :: rotation(9)
-    type(rigid_motion) :: motion
-    call get_reals(params, 'position', clamp%position_ref, error)
+    call read_tip_point(clamp, params, 'clamp B', 'clamp_b.position', error)
     call get_reals(params, 'rotation', rotation, error)
-    call motion_from_block(params, 'motion.', motion, error)
     if (error%code /= 0) return
-    clamp%label = 'clamp B'
-    clamp%position_key = 'clamp_b.position'
     clamp%rotation_ref = reshape(rotation, [3, 3])
-    clamp%position = clamp%position_ref
     clamp%rotation = clamp%rotation_ref
-    clamp%true_position = clamp%position_ref
     clamp%true_rotation = clamp%rotation_ref
-    if (size(motion%hinges) > 0) then
-      clamp%moving = .true.
-      clamp%motion = motion
-    end if
     allocate (support, source=clamp)
   end subroutine new_clamp
 
@@ -105,24 +91,16 @@ contains
     rows = 6
   end function rows
 
-  subroutine update(self, t, rs)
-    class(clamp_support), intent(inout) :: self
-    real(dp), intent(in) :: t
-    type(rotor_state), intent(in) :: rs
-    type(motion_state) :: ms
-    if (self%moving) then
-      ms = motion_at(self%motion, t, rs)
-      call point_motion(ms, self%position_ref, self%position, self%lin_velocity, self%lin_acceleration)
-      self%rotation = matmul(ms%rot, self%rotation_ref)
-      self%omega = ms%omega
-      self%alpha = ms%omega_dot
-    else
-      self%position = self%position_ref
-      self%rotation = self%rotation_ref
-    end if
-    self%true_position = self%position
+  !> The ball's p_B, v_B, a_B, and R_B, w_B, dw_B/dt of the same motion state.
+  subroutine follow(self, ms)
+    class(clamp_support), intent(inout) :: self  !< support
+    type(motion_state), intent(in) :: ms      !< the prescribed motion's state at the update's time
+    call self%ball_support%follow(ms)
+    self%rotation = matmul(ms%rot, self%rotation_ref)
+    self%omega = ms%omega
+    self%alpha = ms%omega_dot
     self%true_rotation = self%rotation
-  end subroutine update
+  end subroutine follow
 
   pure function orientation_error(self, st) result(e)
     class(clamp_support), intent(in) :: self
@@ -143,7 +121,7 @@ contains
     type(chain_state), intent(in) :: st
     real(dp), intent(out) :: g(:)
     real(dp) :: e(3, 3)
-    g(1:3) = st%joint_point(:, chain%n_bodies + 1) - self%position
+    call self%ball_support%residual(chain, st, g)
     e = orientation_error(self, st)
     g(4:6) = 0.5_dp*vee(e - transpose(e))
   end subroutine residual
@@ -155,7 +133,7 @@ contains
     real(dp), intent(out) :: g_jac(:, :)
     real(dp) :: t(3, 3)
     integer :: j, kk
-    call tip_jacobian(chain, st, g_jac)
+    call self%ball_support%jacobian(chain, st, g_jac)
     t = rate_map(orientation_error(self, st))
     do j = 1, chain%n_bodies
       do kk = 1, chain%n_joint_coords(j)
@@ -184,9 +162,9 @@ contains
     real(dp) :: w_n(3), t(3, 3)
     integer :: n
     n = chain%n_bodies
+    call self%ball_support%velocity(chain, st, fs, out)
     t = rate_map(orientation_error(self, st))
     w_n = st%omega(:, n) - fs%omega
-    out(1:3) = tip_velocity(chain, st, fs, self%lin_velocity)
     out(4:6) = matmul(t, w_n) - matmul(self%omega, t)
   end subroutine velocity_rows
 
@@ -199,7 +177,7 @@ contains
     real(dp) :: w_n(3), al_n(3), e(3, 3), edot(3, 3), t(3, 3), tdot(3, 3)
     integer :: n
     n = chain%n_bodies
-    out(1:3) = tip_acceleration(chain, st, fs, self%lin_acceleration)
+    call self%ball_support%bias(chain, st, fs, out)
     w_n = st%omega(:, n) - fs%omega
     al_n = st%alpha(:, n) - fs%omega_dot - cross(fs%omega, w_n)
     e = orientation_error(self, st)
@@ -215,7 +193,7 @@ contains
     type(chain_state), intent(in) :: st
     real(dp), intent(in) :: lambda(:)
     real(dp), intent(out) :: force(3), moment(3)
-    force = lambda(1:3)
+    call self%ball_support%wrench(chain, st, lambda, force, moment)
     moment = matmul(lambda(4:6), rate_map(orientation_error(self, st)))   ! T^T lambda_rot
   end subroutine wrench
 
@@ -236,7 +214,7 @@ contains
     type(chain_tangent), intent(in) :: dst
     real(dp), intent(out) :: dg(:)
     real(dp) :: de(3, 3)
-    dg(1:3) = dst%djoint_point(:, chain%n_bodies + 1)
+    call self%ball_support%residual_tangent(chain, st, dst, dg)
     de = orientation_error_tangent(self, st, dst)
     dg(4:6) = 0.5_dp*vee(de - transpose(de))
   end subroutine residual_tangent
@@ -253,7 +231,7 @@ contains
     real(dp) :: t(3, 3), dt(3, 3), w_n(3)
     integer :: n
     n = chain%n_bodies
-    dout(1:3) = tip_velocity_tangent(chain, dst, fs)
+    call self%ball_support%velocity_tangent(chain, st, dst, fs, dout)
     t = rate_map(orientation_error(self, st))
     dt = rate_map(orientation_error_tangent(self, st, dst))
     w_n = st%omega(:, n) - fs%omega
@@ -284,7 +262,7 @@ contains
     type(chain_tangent), intent(in) :: dst
     real(dp), intent(in) :: lambda(:), dlambda(:)
     real(dp), intent(out) :: dforce(3), dmoment(3)
-    dforce = dlambda(1:3)
+    call self%ball_support%wrench_tangent(chain, st, dst, lambda, dlambda, dforce, dmoment)
     dmoment = matmul(lambda(4:6), rate_map(orientation_error_tangent(self, st, dst))) &
               + matmul(dlambda(4:6), rate_map(orientation_error(self, st)))
   end subroutine wrench_tangent
@@ -300,10 +278,9 @@ contains
     real(dp), intent(out) :: r_jac(:, :)
     real(dp) :: e(3, 3), de(3, 3)
     integer :: j, kk
+    call self%ball_support%closure(chain, st, r, r_jac)   ! the position rows and their Jacobian
     e = orientation_error(self, st)
-    r(1:3) = st%joint_point(:, chain%n_bodies + 1) - self%position
     r(4:12) = reshape(e - identity3(), [9])
-    call tip_jacobian(chain, st, r_jac)
     do j = 1, chain%n_bodies
       do kk = 1, chain%n_joint_coords(j)
         de = matmul(skew(st%axes(:, kk, j)), e)
@@ -323,12 +300,9 @@ contains
     class(clamp_support), intent(inout) :: self
     real(dp), intent(in) :: s
     real(dp), intent(in) :: p0(3), r0(3, 3)
-    self%position = p0 + s*(self%true_position - p0)
+    call self%ball_support%blend_target(s, p0, r0)
     self%rotation = matmul(r0, rotation_exp(s*rotation_log(matmul(transpose(r0), self%true_rotation))))
-    if (s >= 1.0_dp) then
-      self%position = self%true_position
-      self%rotation = self%true_rotation
-    end if
+    if (s >= 1.0_dp) self%rotation = self%true_rotation
   end subroutine blend_target
 
   !> The free part ends where the held last body starts: p_B - L_n R_B e_z.
@@ -346,13 +320,8 @@ contains
   pure subroutine motion_twist(self, velocity, omega)
     class(clamp_support), intent(in) :: self
     real(dp), intent(out) :: velocity(3), omega(3)
-    velocity = self%lin_velocity
+    call self%ball_support%motion_twist(velocity, omega)
     omega = self%omega
   end subroutine motion_twist
-
-  subroutine free(self)
-    class(clamp_support), intent(inout) :: self
-    call motion_free(self%motion)
-  end subroutine free
 
 end module rotorcable_supports_clamp
