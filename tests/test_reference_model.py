@@ -559,12 +559,18 @@ def test_drag_pulse_and_tip_force_closed_form():
     # Generalized forces of each load against its closed-form force mapped with the partial
     # velocities from kinematics (dC/dqd_k, dP_tip/dqd_k): drag in the hub frame
     # F = 1/2 rho cd 2R L |u_n| u_n, u = Rz(psi)^T V_inf - (v + W x (C - c)); the pulse only
-    # inside [t0, t1); the tip force.  Exact: 1e-12 relative (measured <= 8e-14).
+    # inside [t0, t1); the tip force.  Exact up to round-off, and the load's part is the
+    # difference of two whole generalized forces, so its round-off scales with |k0| (the
+    # gravity, inertia and frame terms), not with the load: 1e-12 of the larger of the two
+    # (measured 6e-15, 5e-15, 4e-15; relative to the load alone it had reached 2.5e-12 with
+    # the shared generator's inputs when the file ran in part).  Its own generator: the inputs
+    # do not depend on which tests ran before.
+    rng = np.random.default_rng(558)
     V, rho, cd = np.array([12.0, -3.0, 2.0]), 1.2, np.array([1.1, 0.9, 1.3])
     base = chain("xy", n=3, locked_first=False, seed=9, hub=True, rotor=RUN_UP,
                  rotor_centre=[0.2, 0.1, 0.0])
     drag = dataclasses.replace(base, drag=ref.Drag(rho, cd, V))
-    q, v, t = RNG.uniform(-1, 1, base.nq), RNG.normal(0, 1, base.nq), 0.7
+    q, v, t = rng.uniform(-1, 1, base.nq), rng.normal(0, 1, base.nq), 0.7
     kin = ref.kinematics(base, q, v, t)
     JC = np.stack([ref.kinematics(base, q, e, t)["v"] for e in np.eye(base.nq)], axis=-1)
     Jtip = np.stack([ref.kinematics(base, q, e, t)["vP"][-1] for e in np.eye(base.nq)], axis=-1)
@@ -576,14 +582,18 @@ def test_drag_pulse_and_tip_force_closed_form():
         un = u - (u @ e) * e
         want += JC[j].T @ (0.5 * rho * cd[j] * 2 * base.R[j] * base.L[j] * np.linalg.norm(un) * un)
     k0 = ref.generalized_forces(base, q, v, t)
-    assert rel_err(ref.generalized_forces(drag, q, v, t) - k0, want) < 1e-12
+
+    def load_error(got, expected):
+        return np.max(np.abs(got - expected)) / max(np.max(np.abs(expected)), np.max(np.abs(k0)))
+
+    assert load_error(ref.generalized_forces(drag, q, v, t) - k0, want) < 1e-12
     F = np.array([0.4, -1.0, 2.0])
     pulse = dataclasses.replace(base, pulse=ref.Pulse(2, F, 0.5, 0.9))
-    assert rel_err(ref.generalized_forces(pulse, q, v, 0.5) - ref.generalized_forces(base, q, v, 0.5),
-                   JC[1].T @ F) < 1e-12
+    assert load_error(ref.generalized_forces(pulse, q, v, 0.5) - ref.generalized_forces(base, q, v, 0.5),
+                      JC[1].T @ F) < 1e-12
     assert np.max(np.abs(ref.generalized_forces(pulse, q, v, 0.9) - ref.generalized_forces(base, q, v, 0.9))) \
         < 1e-12 * np.max(np.abs(k0))
     tip = dataclasses.replace(base, tip_force=F)
-    assert rel_err(ref.generalized_forces(tip, q, v, t) - k0, Jtip.T @ F) < 1e-12
+    assert load_error(ref.generalized_forces(tip, q, v, t) - k0, Jtip.T @ F) < 1e-12
     r = ref.solve_accelerations(tip, q, v, t)
     assert np.array_equal(r["F_B"], F) and np.array_equal(r["M_B"], np.zeros(3))
