@@ -312,9 +312,12 @@ class CoreModel:
         """An integration from (q0, v0) at t0 with the forward sensitivities of design parameters
         (rotorcable_parameter_sensitivity).
 
-        ``points`` holds, per parameter, ``(h, pbar, [(offset, weight, CoreModel or None), ...])``:
-        the explicit partial dF/dp = sum weight F(model at p + offset h) / h (None: this model),
-        and the parameter's scale pbar > 0 (the sensitivity's absolute tolerance is atol / pbar).
+        ``points`` holds, per parameter, ``(h, pbar, [(offset, weight, CoreModel or None), ...])``
+        and optionally a fourth item, ``loads_only``: the explicit partial dF/dp = sum weight
+        F(model at p + offset h) / h (None: this model), and the parameter's scale pbar > 0 (the
+        sensitivity's absolute tolerance is atol / pbar).  ``loads_only`` (the rebuilt models
+        differ from this one in their loads only) lets the core difference the loads'
+        generalized forces instead of whole residuals.
         ``sq0``, ``sv0`` (nq, np) are the start sensitivities of q and v (made consistent in the
         core).  Returns the consistent start ``q0``, ``v0`` and start sensitivities ``sq0``,
         ``sv0``, the states ``q``, ``v`` (nq, nt) and the sensitivities ``sq``, ``sv``
@@ -326,13 +329,14 @@ class CoreModel:
         handles = np.zeros((n_pts, n_par), dtype=np.int32, order="F")
         offsets = np.zeros((n_pts, n_par), order="F")
         weights = np.zeros((n_pts, n_par), order="F")
-        for k, (_, _, pts) in enumerate(points):
+        loads_only = np.array([int(len(p) > 3 and bool(p[3])) for p in points], dtype=np.int32)
+        for k, (_, _, pts, *_) in enumerate(points):
             for i, (s, w, m) in enumerate(pts):
                 handles[i, k] = 0 if m is None else m.handle
                 offsets[i, k], weights[i, k] = s, w
         q, v, qs, vs, sq, sv, sq_start, sv_start, st, stat, key, msg = _api.rc_parameter_sensitivity(
             self.handle, *_parameter_arrays(settings), float(t0), _reals(q0), _reals(v0), handles, offsets, weights,
-            _reals([p[0] for p in points]), _reals([p[1] for p in points]),
+            _reals([p[0] for p in points]), _reals([p[1] for p in points]), loads_only,
             np.asfortranarray(sq0, float), np.asfortranarray(sv0, float), t)
         _raise(self.deck, stat, key, msg)
         stats = dict(zip(("steps", "residual_evals", "jacobian_evals", "error_test_failures",
@@ -378,6 +382,16 @@ class CoreModel:
         return {"M": m, "M_jourdain": mj, "k": k, "residual": res, "g": g[:nc], "G": gj[:nc],
                 "Gdot_v": gb[:nc], "G_v": gv[:nc], "vdot": vd, "lambda": la[:nc], "wrenches": wr,
                 "energy": float(en)}
+
+    def parameter_partial(self, models, weights, h: float, y, yd, t: float = 0.0, loads_only: bool = False):
+        """F_p = sum_i w_i F(models[i]) / h at (t, y, y') (None: this model), as the sensitivity
+        integration takes it; ``loads_only``: from the loads' generalized forces on this model's
+        kinematics (rotorcable_parameter_sensitivity, loads_partial)."""
+        handles = np.array([0 if m is None else m.handle for m in models], dtype=np.int32)
+        fp, stat, msg = _probes.rc_probe_parameter_partial(self.handle, handles, _reals(weights), float(h),
+                                                           int(loads_only), float(t), _reals(y), _reals(yd))
+        _raise(self.deck, stat, "", msg)
+        return fp
 
     def consistent_ggl_state(self, q, v, t: float = 0.0):
         """GGL unknowns y = (q, v, lambda, 0) and yd = (v, vdot, 0, 0) at the consistent start."""

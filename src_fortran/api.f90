@@ -626,7 +626,7 @@ contains
   !> F(model handles(i, k)) / h(k) (handle 0: this model).
   subroutine rc_parameter_sensitivity(handle, real_names, nrn, real_sizes, nr, reals, int_names, nin, int_sizes, &
                                       ni, ints, t0, nq, q0, v0, &
-                                      np, npts, handles, offsets, weights, h, pbar, sq0, sv0, nt, t, q, v, &
+                                      np, npts, handles, offsets, weights, h, pbar, loads_only, sq0, sv0, nt, t, q, v, &
                                       q_start, v_start, sq, sv, sq_start, sv_start, stats, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
     character(len=*), intent(in) :: real_names    !< solver settings (pydriver/components.py SOLVER): names of
@@ -646,6 +646,7 @@ contains
     real(c_double), intent(in) :: weights(npts, np)  !< difference weights (0: unused point)
     real(c_double), intent(in) :: h(np)           !< steps [unit of p]
     real(c_double), intent(in) :: pbar(np)        !< scales of the parameters (> 0)
+    integer(c_int), intent(in) :: loads_only(np)  !< 1: the rebuilt models differ in their loads only
     real(c_double), intent(in) :: sq0(nq, np), sv0(nq, np)  !< start sensitivities
     real(c_double), intent(in) :: t(nt)           !< increasing output times > t0 [s]
     real(c_double), intent(out) :: q(nq, nt), v(nq, nt)  !< states at t
@@ -673,6 +674,7 @@ contains
     if (error%code == 0) then
       allocate (points%model(npts, np))
       points%offset = offsets; points%weight = weights; points%h = h
+      points%loads_only = loads_only /= 0
       do k = 1, np
         do i = 1, npts
           if (handles(i, k) == 0) cycle

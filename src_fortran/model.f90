@@ -37,7 +37,7 @@ module rotorcable_model
             constraint_residual, constraint_jacobian, constraint_bias, constraint_velocity, &
             solve_accelerations, positions_at, total_energy, &
             switch_times, joint_diagonal, all_conservative, model_stale, state_motion, state_energies, &
-            workspace_holds, HOLDS_FRAMES, HOLDS_MOTION, HOLDS_EOM
+            workspace_holds, HOLDS_FRAMES, HOLDS_MOTION, HOLDS_EOM, add_load_forces, applied_generalized_forces
 
   !> What the workspace holds, in increasing order: nothing; the frames (positions) of (t, q);
   !> also the velocities of v (accelerations of some vdot); also the forces, accelerations and
@@ -263,12 +263,7 @@ contains
     f_b = 0.0_dp
     m_b = 0.0_dp
     if (model%nc > 0) call model%support_b%wrench(model%chain, model%st, lambda(1:model%nc), f_b, m_b)
-    if (model%fs%rotating .and. .not. model%fs%body_couples) then
-      call inverse_dynamics(model%chain, model%st, model%force, model%moment, f_b, m_b, res, f_a, m_a, &
-                            model%fs%omega, model%fs%omega_dot)
-    else
-      call inverse_dynamics(model%chain, model%st, model%force, model%moment, f_b, m_b, res, f_a, m_a)
-    end if
+    call newton_euler(model, model%force, model%moment, f_b, m_b, res, f_a, m_a)
     res = res - model%tau
     if (present(wrenches)) wrenches = [f_a, m_a, f_b, m_b]
     call record(model, HOLDS_EOM, t, q, v, vdot, lambda)
@@ -318,6 +313,65 @@ contains
     end if
     dres = dres - model%dtau
   end subroutine eom_residual_tangent
+
+  !> Add weight x the forces of `loads` at this model's state (t, q, v) to (force, moment, tau).
+  !> The loads may be another model's built on the same chain, supports and motions (a design
+  !> parameter's rebuilt models, rotorcable_parameter_sensitivity): they read this model's
+  !> frames and velocities, which is what they would compute themselves.
+  subroutine add_load_forces(model, loads, weight, t, q, v, force, moment, tau)
+    type(model_type), intent(inout) :: model  !< model whose kinematics the loads read
+    type(load_slot), intent(in) :: loads(:)   !< the loads
+    real(dp), intent(in) :: weight            !< factor of their forces
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: q(:), v(:)        !< coordinates and rates
+    real(dp), intent(inout) :: force(:, :), moment(:, :), tau(:)  !< (3,n), (3,n), (nq) sums
+    real(dp) :: f(3, model%chain%n_bodies), m(3, model%chain%n_bodies), tq(model%nq)
+    integer :: i
+    call state_motion(model, t, q, v)
+    f = 0.0_dp; m = 0.0_dp; tq = 0.0_dp
+    do i = 1, size(loads)
+      call loads(i)%term%add_forces(model%chain, model%st, model%fs, t, q, v, f, m, tq)
+    end do
+    force = force + weight*f
+    moment = moment + weight*m
+    tau = tau + weight*tq
+  end subroutine add_load_forces
+
+  !> Generalized forces Q = J^T (force, moment) + tau of forces at the CMs, moments and joint
+  !> torques, at this model's state (t, q, v): the Newton-Euler pass (eq. 3.24, 4.52) with them
+  !> less the pass without them, whose inertia and frame terms are the same and cancel.  The
+  !> passes overwrite the joint wrenches, so afterwards the workspace holds the motion only.
+  subroutine applied_generalized_forces(model, t, q, v, force, moment, tau, gen)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: q(:), v(:)        !< coordinates and rates
+    real(dp), intent(in) :: force(:, :), moment(:, :), tau(:)  !< (3,n), (3,n), (nq)
+    real(dp), intent(out) :: gen(:)           !< (nq) Q [Nm]
+    real(dp) :: with_loads(model%nq), without(model%nq), zero(3), f_a(3), m_a(3)
+    zero = 0.0_dp
+    call state_motion(model, t, q, v)
+    call newton_euler(model, force, moment, zero, zero, with_loads, f_a, m_a)
+    call newton_euler(model, 0.0_dp*force, 0.0_dp*moment, zero, zero, without, f_a, m_a)
+    gen = without - with_loads + tau
+    model%ws%holds = min(model%ws%holds, HOLDS_MOTION)
+  end subroutine applied_generalized_forces
+
+  !> The Newton-Euler pass of the workspace's motion under the applied forces and support B's
+  !> wrench, in the model frame's form (a turning frame's rate left out of the couples unless
+  !> the bodies carry them): joint torques and the base's wrench.
+  subroutine newton_euler(model, force, moment, f_b, m_b, res, f_a, m_a)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: force(:, :), moment(:, :)  !< (3,n) applied forces and moments
+    real(dp), intent(in) :: f_b(3), m_b(3)    !< support B's wrench on the chain
+    real(dp), intent(out) :: res(:)           !< (nq) joint torques of the pass
+    real(dp), intent(out) :: f_a(3), m_a(3)   !< the base's wrench on body 1
+    if (model%fs%rotating .and. .not. model%fs%body_couples) then
+      call inverse_dynamics(model%chain, model%st, force, moment, f_b, m_b, res, f_a, m_a, &
+                            model%fs%omega, model%fs%omega_dot)
+    else
+      call inverse_dynamics(model%chain, model%st, force, moment, f_b, m_b, res, f_a, m_a)
+    end if
+  end subroutine newton_euler
 
   !> Generalized applied and velocity forces k(q,qd,t) = -(residual at vdot = 0, lambda = 0).
   subroutine generalized_forces(model, t, q, v, k)

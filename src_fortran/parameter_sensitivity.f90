@@ -25,7 +25,8 @@ module rotorcable_parameter_sensitivity
                                          c_f_pointer, c_associated, c_int64_t, c_null_ptr
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error, sundials_flag_error
-  use rotorcable_model, only: model_type, solve_accelerations, constraint_jacobian
+  use rotorcable_model, only: model_type, solve_accelerations, constraint_jacobian, add_load_forces, &
+                              applied_generalized_forces
   use rotorcable_linalg, only: solve_least_norm
   use rotorcable_ggl_residual, only: ida_user_data, ggl_residual_dense, ggl_residual_tangent
   use rotorcable_ida_binding, only: N_VNew_Serial, N_VDestroy, N_VGetArrayPointer, IDASensInit, &
@@ -36,7 +37,7 @@ module rotorcable_parameter_sensitivity
                                        session_advance, session_end, session_step_onto_switch, session_restart
   implicit none
   private
-  public :: model_pointer, difference_points, parameter_sensitivity_run
+  public :: model_pointer, difference_points, parameter_sensitivity_run, parameter_partial
 
   !> A model by pointer (arrays of pointers need a wrapper type).
   type :: model_pointer
@@ -49,6 +50,9 @@ module rotorcable_parameter_sensitivity
     real(dp), allocatable :: offset(:, :)            !< (points, np) s_i, in steps
     real(dp), allocatable :: weight(:, :)            !< (points, np) w_i (0 = unused point)
     real(dp), allocatable :: h(:)                    !< (np) steps [unit of p]
+    !> (np) the rebuilt models differ from the run's in their loads only (pydriver decides it
+    !> from what was built): F_p is then that of the loads' generalized forces (loads_partial)
+    logical, allocatable :: loads_only(:)
     type(model_type), pointer :: base => null()      !< the run's own model
     !> F_p of the last (t, y, y'): IDAS's staggered corrector calls the sensitivity residual at
     !> the state's converged (t, y, y') once per iteration, and F_p does not depend on s.
@@ -239,6 +243,12 @@ contains
     ! No rebuilt model among the points: the formula differences the run's own model with
     ! itself (the state-transition products of the Krylov periodic start), F_p = 0 exactly.
     if (.not. any([(associated(points%model(i, k)%m), i = 1, size(points%weight, 1))])) return
+    if (allocated(points%loads_only)) then
+      if (points%loads_only(k)) then
+        call loads_partial(points, k, t, y, yd, fp)
+        return
+      end if
+    end if
     do i = 1, size(points%weight, 1)
       if (points%weight(i, k) == 0.0_dp) cycle
       if (associated(points%model(i, k)%m)) then
@@ -250,6 +260,40 @@ contains
     end do
     fp = fp/points%h(k)
   end subroutine parameter_partial
+
+  !> F_p of a parameter that changes the loads only.  Then only the equations of motion depend
+  !> on it, through the loads' generalized forces Q (eom residual = inertia terms - Q), and Q is
+  !> linear in the loads' forces at fixed kinematics:
+  !>
+  !>     F_p (v rows) = -J^T (sum_i w_i (force_i, moment_i)) / h - sum_i w_i tau_i / h,
+  !>
+  !> the rebuilt models' loads evaluated on the run's kinematics at (t, q, v) and mapped by one
+  !> pair of Newton-Euler passes (applied_generalized_forces): no kinematics, inertia or
+  !> constraint rows per point, which the whole residuals of the rebuilt models repeat.  The
+  !> same difference formula as parameter_partial's, so the same truncation and round-off.
+  subroutine loads_partial(points, k, t, y, yd, fp)
+    type(difference_points), intent(inout) :: points  !< rebuilt models and weights
+    integer, intent(in) :: k                  !< parameter
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: y(:), yd(:)       !< unknowns and their derivatives
+    real(dp), intent(out) :: fp(:)            !< dF/dp_k
+    type(model_type), pointer :: base, m
+    real(dp), allocatable :: force(:, :), moment(:, :), tau(:), gen(:)
+    integer :: i, nq
+    base => points%base
+    nq = base%nq
+    allocate (force(3, base%chain%n_bodies), moment(3, base%chain%n_bodies), tau(nq), gen(nq))
+    force = 0.0_dp; moment = 0.0_dp; tau = 0.0_dp
+    do i = 1, size(points%weight, 1)
+      if (points%weight(i, k) == 0.0_dp) cycle
+      m => points%model(i, k)%m
+      if (.not. associated(m)) m => base
+      call add_load_forces(base, m%loads, points%weight(i, k), t, y(1:nq), y(nq + 1:2*nq), force, moment, tau)
+    end do
+    call applied_generalized_forces(base, t, y(1:nq), y(nq + 1:2*nq), force, moment, tau, gen)
+    fp = 0.0_dp
+    fp(nq + 1:2*nq) = -gen/points%h(k)
+  end subroutine loads_partial
 
   !> Consistent initial sensitivities of the GGL unknowns for every parameter (module comment).
   subroutine initial_sensitivities(model, points, t, q, v, sq0, sv0, ys, yps, error)

@@ -21,11 +21,12 @@ module rotorcable_probes
   use rotorcable_linalg, only: dgetrf, dgetrs
   use rotorcable_projection, only: constraint_rank_margin
   use rotorcable_articulated_body, only: articulated_factors, articulated_factorise, articulated_solve
+  use rotorcable_parameter_sensitivity, only: difference_points, parameter_partial
   implicit none
   private
   public :: rc_probe_evaluate, rc_probe_consistent_start, rc_probe_ggl_residual, rc_probe_iteration_matrix, &
             rc_probe_time_kernels, rc_probe_integrate, rc_probe_rank_margin, rc_probe_chain_solver, &
-            rc_probe_residual_tangent, rc_probe_articulated_solve
+            rc_probe_residual_tangent, rc_probe_articulated_solve, rc_probe_parameter_partial
 
 contains
 
@@ -144,6 +145,46 @@ contains
     if (error%code == 0) call ggl_residual_dense(model, t, y, yd, r)
     call to_status(error, stat, msg)
   end subroutine rc_probe_ggl_residual
+
+  !> The explicit partial F_p = sum_i w_i F(model_i) / h of one design parameter at (t, y, y'),
+  !> as the sensitivity integration takes it: from the rebuilt models' whole residuals, or
+  !> (loads_only /= 0) from their loads' generalized forces on this model's kinematics.
+  subroutine rc_probe_parameter_partial(handle, npts, handles, weights, h, loads_only, t, n, y, yd, fp, stat, msg)
+    integer(c_int), intent(in) :: handle          !< the run's model
+    integer(c_int), intent(in) :: npts            !< difference points
+    integer(c_int), intent(in) :: handles(npts)   !< their models (0: the run's own)
+    real(c_double), intent(in) :: weights(npts)   !< difference weights
+    real(c_double), intent(in) :: h               !< step [unit of p]
+    integer(c_int), intent(in) :: loads_only      !< 1: the partial of the loads' generalized forces
+    real(c_double), intent(in) :: t               !< time [s]
+    integer(c_int), intent(in) :: n               !< 2 nq + 2 nc
+    real(c_double), intent(in) :: y(n), yd(n)     !< unknowns and their derivatives
+    real(c_double), intent(out) :: fp(n)          !< dF/dp
+    integer(c_int), intent(out) :: stat           !< 0 = ok
+    character(len=1024), intent(out) :: msg       !< why not
+    type(model_type), pointer :: model
+    type(difference_points) :: points
+    type(error_type) :: error
+    integer :: i
+    fp = 0.0_dp
+    model => model_of(handle, error)
+    if (error%code == 0) then
+      if (n /= 2*model%nq + 2*model%nc) call fatal_error(error, 'n must be 2 nq + 2 nc')
+    end if
+    if (error%code == 0) then
+      allocate (points%model(npts, 1))
+      points%offset = reshape([(0.0_dp, i = 1, npts)], [npts, 1])
+      points%weight = reshape(weights, [npts, 1])
+      points%h = [h]
+      points%loads_only = [loads_only /= 0]
+      points%base => model
+      do i = 1, npts
+        if (handles(i) /= 0) points%model(i, 1)%m => model_of(handles(i), error)
+      end do
+    end if
+    if (error%code == 0) call parameter_partial(points, 1, t, y, yd, fp)
+    call to_status(error, stat, msg)
+  end subroutine rc_probe_parameter_partial
 
   !> The first-order change of the GGL residual at (t, y, y') for the change (dy, dyd), by the
   !> tangent sweep of the analytic Jacobian (ggl_residual_tangent, from body 1), which evaluates

@@ -318,9 +318,9 @@ def output_derivatives(model, plans, outputs: _Outputs, ts: dict, t, q, v, sq, s
 
 
 def _points(pl) -> tuple:
-    """(h, pbar, [(offset, weight, CoreModel or None)]) of a plan for the core."""
+    """(h, pbar, [(offset, weight, CoreModel or None)], loads_only) of a plan for the core."""
     pbar = abs(pl.parameter.value) if pl.parameter.value != 0.0 else 1.0
-    return (pl.h, pbar, [(s, w, None if m is None else m.core) for s, w, m in pl.points])
+    return (pl.h, pbar, [(s, w, None if m is None else m.core) for s, w, m in pl.points], pl.loads_only)
 
 
 def _periodic_start_krylov(model, settings, period, q0, v0, d_x, t_out):

@@ -29,6 +29,8 @@ P(s) N_0 varies smoothly and the pencil's eigenvalues do not depend on the basis
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from pydriver.analyses.common import REACTION_NAMES
@@ -55,10 +57,42 @@ class Scheme:
 
 
 class Plan:
-    """A parameter, its step and the models rebuilt at its offsets (None: the run's own model)."""
+    """A parameter, its step and the models rebuilt at its offsets (None: the run's own model);
+    ``loads_only``: they differ from the run's model in their loads only (:func:`loads_only`)."""
 
-    def __init__(self, parameter: Parameter, h: float, scheme: str, points: list):
+    def __init__(self, parameter: Parameter, h: float, scheme: str, points: list, loads_only: bool = False):
         self.parameter, self.h, self.scheme, self.points = parameter, h, scheme, points
+        self.loads_only = loads_only
+
+
+#: What pydriver.assembly.build makes of a deck besides the loads: the chain, support A's pose
+#: and motion, support B, the rotor (the description's entries), and the deck groups read for
+#: them directly.  A parameter whose rebuilt models agree with the run's in all of these moves
+#: the loads only.
+NOT_LOADS = ("bodies", "first_coord", "base_rotation", "base_moves", "support", "support_parameters", "clamp",
+             "rotor")
+NOT_LOADS_GROUPS = ("chain", "shape", "clamp_a")
+
+
+def _same(a, b) -> bool:
+    """Equal to the bit, through dicts, sequences, dataclasses and arrays."""
+    if dataclasses.is_dataclass(a) and dataclasses.is_dataclass(b):
+        return type(a) is type(b) and _same(dataclasses.asdict(a), dataclasses.asdict(b))
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return np.shape(a) == np.shape(b) and bool(np.array_equal(a, b))
+    return a == b
+
+
+def loads_only(model, varied) -> bool:
+    """Whether ``varied`` (a rebuilt model) differs from ``model`` in its loads only, so that the
+    core may difference the loads' generalized forces for F_p (rotorcable_parameter_sensitivity,
+    loads_partial) instead of whole residuals."""
+    return (all(_same(model.description[k], varied.description[k]) for k in NOT_LOADS)
+            and all(_same(model.deck.values.get(g), varied.deck.values.get(g)) for g in NOT_LOADS_GROUPS))
 
 
 def plan(model) -> list[Plan]:
@@ -104,7 +138,8 @@ def plan(model) -> list[Plan]:
                                     f"'{p.name}' cannot be varied by {2 * h:g} on either side of "
                                     f"{p.value:g}: {err.group}.{err.key}: {err.reason}") from None
             points.append((s, w, models.get(s)))
-        out.append(Plan(p, h, scheme, points))
+        out.append(Plan(p, h, scheme, points,
+                        all(loads_only(model, m) for _, _, m in points if m is not None)))
     return out
 
 
