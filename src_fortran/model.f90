@@ -48,6 +48,7 @@ module rotorcable_model
   type :: workspace_record
     integer :: holds = HOLDS_NOTHING
     logical :: solved = .false.               !< vdot, lambda are eq. 3.55's at (t, q, v) (sampling)
+    logical :: linearised = .false.           !< the loads have linearised at the state (tangents)
     real(dp) :: t = 0.0_dp
     real(dp), allocatable :: q(:), v(:), vdot(:), lambda(:)
   end type workspace_record
@@ -148,6 +149,7 @@ contains
     model%prepared = .false.
     model%ws%holds = HOLDS_NOTHING
     model%ws%solved = .false.
+    model%ws%linearised = .false.
   end subroutine model_stale
 
   !> Whether the workspace holds at least `level` of the state given (frames: t, q; motion:
@@ -211,6 +213,7 @@ contains
     real(dp), intent(in), optional :: v(:), vdot(:), lambda(:)
     model%ws%holds = level
     model%ws%solved = .false.
+    model%ws%linearised = .false.
     model%ws%t = t
     model%ws%q(:) = q                       ! (:): no reallocation check, the sizes are the model's
     if (present(v)) model%ws%v(:) = v
@@ -288,6 +291,12 @@ contains
     integer :: i
     if (.not. workspace_holds(model, HOLDS_EOM, t, q, v, vdot, lambda)) then
       call eom_residual(model, t, q, v, vdot, lambda, dres)   ! the base point (dres: scratch)
+    end if
+    if (.not. model%ws%linearised) then       ! once per state, for all the columns taken there
+      do i = 1, size(model%loads)
+        call model%loads(i)%term%linearise(model%chain, model%st, q)
+      end do
+      model%ws%linearised = .true.
     end if
     call positions_tangent(model%chain, model%st, dq, first, model%dst)
     call motion_tangent(model%chain, model%seed, model%st, v, vdot, dv, dvdot, model%dst)

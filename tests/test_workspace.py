@@ -27,6 +27,11 @@ def test_the_tangent_does_not_depend_on_what_was_evaluated_before():
     m.core.ggl_residual(y2, yd2, t=t + 0.01)
     after_other = m.core.residual_tangent(y, yd, dy, 3.0 * dy, t=t)
     assert np.array_equal(after_same, after_other)
+    # After a tangent at another state: the loads' linearisation (the rotation springs keep
+    # their trigonometry for the columns of one state) belongs to that state, and is redone.
+    m.core.residual_tangent(y2, yd2, dy, 3.0 * dy, t=t + 0.01)
+    after_other_tangent = m.core.residual_tangent(y, yd, dy, 3.0 * dy, t=t)
+    assert np.array_equal(after_same, after_other_tangent)
 
 
 def test_samples_do_not_depend_on_what_was_evaluated_before():

@@ -43,8 +43,14 @@ module rotorcable_loads_rotation_springs
     real(dp), allocatable :: stiffness(:, :)  !< (3, n) K diagonal [Nm/rad]; 0 for a locked joint
     real(dp), allocatable :: damping(:, :)    !< (3, n) D diagonal [Nms/rad]
     logical, allocatable :: free(:)           !< (n) joint j has coordinates
+    ! joint_terms at the state of the last linearise, which the tangents there read: the
+    ! columns of one state share one evaluation of the trigonometry.
+    real(dp), allocatable :: phi(:, :)        !< (3, n) rotation vectors [rad]
+    real(dp), allocatable :: axes(:, :, :)    !< (3, 3, n) A, the joint axes in the child's frame
+    real(dp), allocatable :: coef(:, :)       !< (2, n) J_r^-1's coefficient c and dc/da
   contains
     procedure :: add_forces
+    procedure :: linearise
     procedure :: add_force_tangent
     procedure :: potential
     procedure :: joint_diagonal
@@ -75,6 +81,8 @@ contains
     load%stiffness = 0.0_dp
     load%damping = 0.0_dp
     load%free = .not. chain%locked
+    allocate (load%phi(3, chain%n_bodies), load%axes(3, 3, chain%n_bodies), load%coef(2, chain%n_bodies))
+    load%phi = 0.0_dp; load%axes = 0.0_dp; load%coef = 0.0_dp
     k = 0
     do j = 1, chain%n_bodies
       if (chain%locked(j)) cycle
@@ -201,6 +209,19 @@ contains
     end if
   end subroutine jacobian_coefficient
 
+  !> joint_terms of every free joint at q, for the tangents at this state.
+  subroutine linearise(self, chain, st, q)
+    class(rotation_springs_load), intent(inout) :: self
+    type(chain_type), intent(in) :: chain     !< chain description
+    type(chain_state), intent(in) :: st       !< frames, velocities at the state (not needed)
+    real(dp), intent(in) :: q(:)              !< coordinates [rad]
+    integer :: j
+    do j = 1, chain%n_bodies
+      if (chain%locked(j)) cycle
+      call joint_terms(chain, j, q, self%phi(:, j), self%axes(:, :, j), self%coef(1, j), self%coef(2, j))
+    end do
+  end subroutine linearise
+
   !> Tangent of tau_j = -A^T (g(phi) + D A qdot_j), g = J_r^-T K phi = K phi - phi x K phi / 2
   !> + c phi x (phi x K phi), for the joint's own (dq, dv).  With delta = A dq the relative
   !> rotation's change in the child's axes (dR_rel = R_rel [delta]x): dphi = J_r^-1(phi) delta,
@@ -215,7 +236,8 @@ contains
     do j = dst%first, chain%n_bodies
       if (chain%locked(j)) cycle
       i0 = chain%first_coord(j)
-      call joint_terms(chain, j, q, phi, a, c, dc_da)
+      ! joint_terms at this state, kept by linearise (the model calls it before the tangents).
+      phi = self%phi(:, j); a = self%axes(:, :, j); c = self%coef(1, j); dc_da = self%coef(2, j)
       ! Fixed-size copies: matmul on them is inlined, not a library call.
       rates = v(i0:i0 + 2); d_angles = dq(i0:i0 + 2); d_rates = dv(i0:i0 + 2)
       delta = matmul(a, d_angles)

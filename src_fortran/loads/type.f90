@@ -6,7 +6,9 @@
 !> the coordinates, at a kinematic state and a time; it may have a potential (for the energy
 !> balance), discontinuities in time (where the integrator must stop and restart), and a
 !> constant diagonal joint-space stiffness and damping (what a chain factorisation of the
-!> iteration matrix can use exactly; rotorcable_chain_linear_solver).
+!> iteration matrix can use exactly; rotorcable_chain_linear_solver).  Before the tangents at
+!> a state the model calls linearise once, so that a load may keep what its tangent needs at
+!> that state (its trigonometry) for all the columns taken there.
 module rotorcable_loads_type
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type
@@ -42,6 +44,7 @@ module rotorcable_loads_type
     !> Change a named parameter in place (a model that updates instead of being rebuilt,
     !> rotorcable_model_update); found = .false. if the load has no parameter of that name.
     procedure :: set_parameter => no_set_parameter
+    procedure :: linearise => no_linearise
     !> The current value of a named parameter; found = .false. if the load has none of that name.
     procedure :: get_parameter => no_get_parameter
   end type load_term
@@ -91,6 +94,14 @@ contains
     real(dp), intent(inout) :: stiffness(:)   !< (nq) diagonal stiffness to add to [Nm/rad]
     real(dp), intent(inout) :: damping(:)     !< (nq) diagonal damping to add to [Nms/rad]
   end subroutine no_joint_diagonal
+
+  !> Keep what add_force_tangent needs at the state (t, q, v) of st: nothing, by default.
+  subroutine no_linearise(self, chain, st, q)
+    class(load_term), intent(inout) :: self   !< the load
+    type(chain_type), intent(in) :: chain     !< chain description
+    type(chain_state), intent(in) :: st       !< frames, velocities at the state
+    real(dp), intent(in) :: q(:)              !< coordinates [rad]
+  end subroutine no_linearise
 
   subroutine no_set_parameter(self, name, values, found, error)
     class(load_term), intent(inout) :: self   !< the load
