@@ -43,6 +43,7 @@ contains
     type(parameter_block), intent(in) :: params  !< its parameters by name
     type(error_type), intent(inout) :: error  !< status
     type(load_kind) :: kinds(7)
+    character(len=32) :: names(7)
     integer :: i
     ! Built here, not a named constant: gfortran 12 does not take a procedure as a constant
     ! structure constructor's component (Fortran 2008 allows it).
@@ -50,7 +51,10 @@ contains
              load_kind('tip_force', new_tip_force), load_kind('joint_springs', new_joint_springs), &
              load_kind('rotation_springs', new_rotation_springs), load_kind('drag', new_drag), &
              load_kind('anchor', new_anchor)]
-    call find_kind(kinds%name, kind, 'load', i, error)
+    ! The names as an array of their own: the strided section kinds%name as an actual argument
+    ! makes a temporary, which the debug build (-fcheck=all) reports on stderr at every build.
+    names = kinds%name
+    call find_kind(names, kind, 'load', i, error)
     if (i > 0) call kinds(i)%build(slot, chain, params, error)
   end subroutine new_load
 

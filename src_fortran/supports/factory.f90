@@ -42,10 +42,14 @@ contains
     type(parameter_block), intent(in) :: params  !< its parameters by name
     type(error_type), intent(inout) :: error  !< status
     type(support_kind) :: kinds(2)
+    character(len=32) :: names(2)
     integer :: i
     ! Built here, not a named constant (as in loads/factory.f90).
     kinds = [support_kind('clamp', new_clamp), support_kind('ball', new_ball)]
-    call find_kind(kinds%name, kind, 'support', i, error)
+    ! The names as an array of their own: the strided section kinds%name as an actual argument
+    ! makes a temporary, which the debug build (-fcheck=all) reports on stderr at every build.
+    names = kinds%name
+    call find_kind(names, kind, 'support', i, error)
     if (i > 0) call kinds(i)%build(support, chain, params, error)
   end subroutine new_support
 
