@@ -99,6 +99,18 @@ def _ints(a) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.int32).reshape(-1)
 
 
+def load_mask(changed: list) -> np.ndarray:
+    """(load slots, parameters) int32 mask of the load slots each parameter changes, from a list
+    with one entry per parameter: a sequence of flags, or None (all; a slot beyond the mask counts
+    as changed in the core)."""
+    nl = max([1] + [len(c) for c in changed if c is not None])
+    mask = np.ones((nl, len(changed)), dtype=np.int32, order="F")
+    for k, c in enumerate(changed):
+        if c is not None:
+            mask[:len(c), k] = np.asarray(c, bool)
+    return mask
+
+
 def _reals(a) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=float).reshape(-1)
 
@@ -308,16 +320,20 @@ class CoreModel:
                           "convergence_failures", "sensitivity_residual_evals"), (int(x) for x in st)))
         return {"q0": qs, "v0": vs, "q": q, "v": v, "basis": basis, "phi": phi, "stats": stats}
 
-    def parameter_sensitivity(self, settings: dict, t0: float, q0, v0, points, sq0, sv0, t) -> dict:
+    def parameter_sensitivity(self, settings: dict, t0: float, q0, v0, points, sq0, sv0, t,
+                              tolerance_scale: float = 1.0) -> dict:
         """An integration from (q0, v0) at t0 with the forward sensitivities of design parameters
         (rotorcable_parameter_sensitivity).
 
         ``points`` holds, per parameter, ``(h, pbar, [(offset, weight, CoreModel or None), ...])``
-        and optionally a fourth item, ``loads_only``: the explicit partial dF/dp = sum weight
+        and optionally a fourth item, ``loads_only``, and a fifth, the flags of the load slots
+        the parameter changes (None: all): the explicit partial dF/dp = sum weight
         F(model at p + offset h) / h (None: this model), and the parameter's scale pbar > 0 (the
         sensitivity's absolute tolerance is atol / pbar).  ``loads_only`` (the rebuilt models
         differ from this one in their loads only) lets the core difference the loads'
-        generalized forces instead of whole residuals.
+        generalized forces instead of whole residuals, of the changed slots only.
+        ``tolerance_scale`` (>= 1) loosens the sensitivities' rtol and atol by that factor (the
+        state keeps the settings' own).
         ``sq0``, ``sv0`` (nq, np) are the start sensitivities of q and v (made consistent in the
         core).  Returns the consistent start ``q0``, ``v0`` and start sensitivities ``sq0``,
         ``sv0``, the states ``q``, ``v`` (nq, nt) and the sensitivities ``sq``, ``sv``
@@ -330,13 +346,15 @@ class CoreModel:
         offsets = np.zeros((n_pts, n_par), order="F")
         weights = np.zeros((n_pts, n_par), order="F")
         loads_only = np.array([int(len(p) > 3 and bool(p[3])) for p in points], dtype=np.int32)
+        changed = load_mask([p[4] if len(p) > 4 else None for p in points])
         for k, (_, _, pts, *_) in enumerate(points):
             for i, (s, w, m) in enumerate(pts):
                 handles[i, k] = 0 if m is None else m.handle
                 offsets[i, k], weights[i, k] = s, w
         q, v, qs, vs, sq, sv, sq_start, sv_start, st, stat, key, msg = _api.rc_parameter_sensitivity(
             self.handle, *_parameter_arrays(settings), float(t0), _reals(q0), _reals(v0), handles, offsets, weights,
-            _reals([p[0] for p in points]), _reals([p[1] for p in points]), loads_only,
+            _reals([p[0] for p in points]), _reals([p[1] for p in points]), loads_only, changed,
+            float(tolerance_scale),
             np.asfortranarray(sq0, float), np.asfortranarray(sv0, float), t)
         _raise(self.deck, stat, key, msg)
         stats = dict(zip(("steps", "residual_evals", "jacobian_evals", "error_test_failures",
@@ -383,13 +401,17 @@ class CoreModel:
                 "Gdot_v": gb[:nc], "G_v": gv[:nc], "vdot": vd, "lambda": la[:nc], "wrenches": wr,
                 "energy": float(en)}
 
-    def parameter_partial(self, models, weights, h: float, y, yd, t: float = 0.0, loads_only: bool = False):
+    def parameter_partial(self, models, weights, h: float, y, yd, t: float = 0.0, loads_only: bool = False,
+                          changed_loads=None):
         """F_p = sum_i w_i F(models[i]) / h at (t, y, y') (None: this model), as the sensitivity
         integration takes it; ``loads_only``: from the loads' generalized forces on this model's
-        kinematics (rotorcable_parameter_sensitivity, loads_partial)."""
+        kinematics (rotorcable_parameter_sensitivity, loads_partial), of the load slots where
+        ``changed_loads`` (default: all)."""
         handles = np.array([0 if m is None else m.handle for m in models], dtype=np.int32)
+        changed = load_mask([changed_loads])
         fp, stat, msg = _probes.rc_probe_parameter_partial(self.handle, handles, _reals(weights), float(h),
-                                                           int(loads_only), float(t), _reals(y), _reals(yd))
+                                                           int(loads_only), changed[:, 0], float(t), _reals(y),
+                                                           _reals(yd))
         _raise(self.deck, stat, "", msg)
         return fp
 

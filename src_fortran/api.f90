@@ -626,7 +626,8 @@ contains
   !> F(model handles(i, k)) / h(k) (handle 0: this model).
   subroutine rc_parameter_sensitivity(handle, real_names, nrn, real_sizes, nr, reals, int_names, nin, int_sizes, &
                                       ni, ints, t0, nq, q0, v0, &
-                                      np, npts, handles, offsets, weights, h, pbar, loads_only, sq0, sv0, nt, t, q, v, &
+                                      np, npts, handles, offsets, weights, h, pbar, loads_only, nl, changed_loads, &
+                                      tolerance_scale, sq0, sv0, nt, t, q, v, &
                                       q_start, v_start, sq, sv, sq_start, sv_start, stats, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
     character(len=*), intent(in) :: real_names    !< solver settings (pydriver/components.py SOLVER): names of
@@ -647,6 +648,13 @@ contains
     real(c_double), intent(in) :: h(np)           !< steps [unit of p]
     real(c_double), intent(in) :: pbar(np)        !< scales of the parameters (> 0)
     integer(c_int), intent(in) :: loads_only(np)  !< 1: the rebuilt models differ in their loads only
+    integer(c_int), intent(in) :: nl              !< load slots described by changed_loads
+    !> with loads_only: 1 where the rebuilt models' load in that slot differs from the run's (the
+    !> others cancel in the difference and are not evaluated)
+    integer(c_int), intent(in) :: changed_loads(nl, np)
+    !> the sensitivities' tolerances are the state's times this (>= 1: products whose weight in
+    !> the result is small, the inexact Krylov blocks of pydriver's periodic start)
+    real(c_double), intent(in) :: tolerance_scale
     real(c_double), intent(in) :: sq0(nq, np), sv0(nq, np)  !< start sensitivities
     real(c_double), intent(in) :: t(nt)           !< increasing output times > t0 [s]
     real(c_double), intent(out) :: q(nq, nt), v(nq, nt)  !< states at t
@@ -668,13 +676,15 @@ contains
     model => model_of(handle, error)
     if (error%code == 0) then
       if (nq /= model%nq) call fatal_error(error, 'rc_parameter_sensitivity: wrong sizes')
-      if (any(pbar <= 0.0_dp) .or. any(h <= 0.0_dp)) &
-        call fatal_error(error, 'rc_parameter_sensitivity: steps and parameter scales must be > 0')
+      if (any(pbar <= 0.0_dp) .or. any(h <= 0.0_dp) .or. .not. tolerance_scale >= 1.0_dp) &
+        call fatal_error(error, 'rc_parameter_sensitivity: steps and parameter scales must be > 0, the '// &
+                         'tolerance scale >= 1')
     end if
     if (error%code == 0) then
       allocate (points%model(npts, np))
       points%offset = offsets; points%weight = weights; points%h = h
       points%loads_only = loads_only /= 0
+      points%changed_load = changed_loads /= 0
       do k = 1, np
         do i = 1, npts
           if (handles(i, k) == 0) cycle
@@ -690,7 +700,8 @@ contains
     if (error%code == 0) call settings_from_flat(real_names, real_sizes, reals, int_names, int_sizes, ints, settings, error)
     if (error%code == 0) then
       call parameter_sensitivity_run(model, points, pbar, settings, t0, &
-                                     q_start, v_start, sq0, sv0, t, q, v, sq, sv, st, n_sens, error, sq_start, sv_start)
+                                     q_start, v_start, sq0, sv0, t, q, v, sq, sv, st, n_sens, error, sq_start, sv_start, &
+                                     tolerance_scale)
       stats = [st%steps, st%residual_evals, st%jacobian_evals, st%error_test_failures, st%convergence_failures, &
                n_sens]
     end if

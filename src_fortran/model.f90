@@ -327,18 +327,22 @@ contains
   !> The loads may be another model's built on the same chain, supports and motions (a design
   !> parameter's rebuilt models, rotorcable_parameter_sensitivity): they read this model's
   !> frames and velocities, which is what they would compute themselves.
-  subroutine add_load_forces(model, loads, weight, t, q, v, force, moment, tau)
+  subroutine add_load_forces(model, loads, weight, t, q, v, force, moment, tau, only)
     type(model_type), intent(inout) :: model  !< model whose kinematics the loads read
     type(load_slot), intent(in) :: loads(:)   !< the loads
     real(dp), intent(in) :: weight            !< factor of their forces
     real(dp), intent(in) :: t                 !< time [s]
     real(dp), intent(in) :: q(:), v(:)        !< coordinates and rates
     real(dp), intent(inout) :: force(:, :), moment(:, :), tau(:)  !< (3,n), (3,n), (nq) sums
+    logical, intent(in), optional :: only(:)  !< the loads to add (slot i where only(i); default all)
     real(dp) :: f(3, model%chain%n_bodies), m(3, model%chain%n_bodies), tq(model%nq)
     integer :: i
     call state_motion(model, t, q, v)
     f = 0.0_dp; m = 0.0_dp; tq = 0.0_dp
     do i = 1, size(loads)
+      if (present(only)) then
+        if (.not. only(i)) cycle
+      end if
       call loads(i)%term%add_forces(model%chain, model%st, model%fs, t, q, v, f, m, tq)
     end do
     force = force + weight*f

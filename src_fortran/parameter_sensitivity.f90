@@ -53,6 +53,9 @@ module rotorcable_parameter_sensitivity
     !> (np) the rebuilt models differ from the run's in their loads only (pydriver decides it
     !> from what was built): F_p is then that of the loads' generalized forces (loads_partial)
     logical, allocatable :: loads_only(:)
+    !> (load slots, np) with loads_only: the slots whose load the rebuilt models change; the
+    !> others give the same forces at every point and cancel in the difference (weights sum to 0)
+    logical, allocatable :: changed_load(:, :)
     type(model_type), pointer :: base => null()      !< the run's own model
     !> F_p of the last (t, y, y'): IDAS's staggered corrector calls the sensitivity residual at
     !> the state's converged (t, y, y') once per iteration, and F_p does not depend on s.
@@ -72,7 +75,8 @@ contains
   !> np parameters, starting from the state sensitivities (sq0, sv0); returns the states and
   !> the sensitivities (s_q, s_v) at every output time.
   subroutine parameter_sensitivity_run(model, points, pbar, settings, t0, q0, v0, sq0, sv0, t_out, q_out, v_out, &
-                                       sq_out, sv_out, stats, sens_residual_evals, error, sq_start, sv_start)
+                                       sq_out, sv_out, stats, sens_residual_evals, error, sq_start, sv_start, &
+                                       tolerance_scale)
     type(model_type), intent(inout), target :: model  !< the run's model
     type(difference_points), intent(inout), target :: points  !< rebuilt models and weights
     real(dp), intent(in) :: pbar(:)                   !< (np) parameter scales: atol of s_k = atol / pbar_k
@@ -87,6 +91,11 @@ contains
     integer, intent(out) :: sens_residual_evals       !< sensitivity residual evaluations (all columns at once)
     type(error_type), intent(inout) :: error          !< status
     real(dp), intent(out), optional :: sq_start(:, :), sv_start(:, :)  !< (nq, np) the consistent start sensitivities
+    !> the sensitivities' rtol and atol are the state's times this (default 1): products that
+    !> enter a result with a small weight need proportionally less accuracy (inexact Krylov,
+    !> Simoncini & Szyld, SIAM J. Sci. Comput. 25 (2003) 454; pydriver's periodic start)
+    real(dp), intent(in), optional :: tolerance_scale
+    real(dp) :: scale
     type(dae_session) :: s
     type(c_ptr), allocatable, target :: ys(:), yps(:), atols(:)
     real(c_double), pointer :: col(:), base_atol(:)
@@ -96,6 +105,8 @@ contains
     integer :: nq, nc, n, np, k, i
 
     nq = model%nq; nc = model%nc; n = 2*nq + 2*nc; np = size(pbar)
+    scale = 1.0_dp
+    if (present(tolerance_scale)) scale = tolerance_scale
     q_out = 0.0_dp; v_out = 0.0_dp; sq_out = 0.0_dp; sv_out = 0.0_dp; sens_residual_evals = 0
     points%base => model
     call session_start(s, model, settings, t0, q0, v0, error)
@@ -124,14 +135,14 @@ contains
         call c_f_pointer(N_VGetArrayPointer(yps(k)), col, [n]); col = yps0(:, k)
         ! s_k = dy/dp_k: a change pbar_k of p_k moves y by pbar_k s_k, which is held to the
         ! state's own tolerances (IDAS's pbar scaling, user guide 2.5).
-        call c_f_pointer(N_VGetArrayPointer(atols(k)), col, [n]); col = base_atol/pbar(k)
+        call c_f_pointer(N_VGetArrayPointer(atols(k)), col, [n]); col = scale*base_atol/pbar(k)
       end do
     end if
     if (error%code == 0) then
       s%ud%extra = c_loc(points)
       call check(IDASensInit(s%mem, int(np, c_int), IDA_STAGGERED, c_funloc(parameter_residual), &
                              c_loc(ys), c_loc(yps)), 'IDASensInit', s, error)
-      call check(IDASensSVtolerances(s%mem, real(settings%rtol, c_double), c_loc(atols)), &
+      call check(IDASensSVtolerances(s%mem, real(scale*settings%rtol, c_double), c_loc(atols)), &
                  'IDASensSVtolerances', s, error)
       ! Sensitivities OUT of the local error test (unlike the monodromy's): F_p is a difference
       ! quotient whose round-off, eps |F| / h ~ 1e-11 of the loads' scale, is noise from step to
@@ -263,7 +274,8 @@ contains
 
   !> F_p of a parameter that changes the loads only.  Then only the equations of motion depend
   !> on it, through the loads' generalized forces Q (eom residual = inertia terms - Q), and Q is
-  !> linear in the loads' forces at fixed kinematics:
+  !> linear in the loads' forces at fixed kinematics (of the load slots it changes: the others
+  !> give the same forces at every point, and the weights sum to 0):
   !>
   !>     F_p (v rows) = -J^T (sum_i w_i (force_i, moment_i)) / h - sum_i w_i tau_i / h,
   !>
@@ -288,12 +300,27 @@ contains
       if (points%weight(i, k) == 0.0_dp) cycle
       m => points%model(i, k)%m
       if (.not. associated(m)) m => base
-      call add_load_forces(base, m%loads, points%weight(i, k), t, y(1:nq), y(nq + 1:2*nq), force, moment, tau)
+      call add_load_forces(base, m%loads, points%weight(i, k), t, y(1:nq), y(nq + 1:2*nq), force, moment, tau, &
+                           changed_slots(points, k, size(m%loads)))
     end do
     call applied_generalized_forces(base, t, y(1:nq), y(nq + 1:2*nq), force, moment, tau, gen)
     fp = 0.0_dp
     fp(nq + 1:2*nq) = -gen/points%h(k)
   end subroutine loads_partial
+
+  !> Which of a rebuilt model's nl load slots parameter k changes (points%changed_load; a slot
+  !> it does not describe, or no description at all: changed).
+  pure function changed_slots(points, k, nl) result(only)
+    type(difference_points), intent(in) :: points  !< rebuilt models and weights
+    integer, intent(in) :: k, nl              !< parameter, load slots
+    logical :: only(nl)
+    integer :: i
+    only = .true.
+    if (.not. allocated(points%changed_load)) return
+    do i = 1, min(nl, size(points%changed_load, 1))
+      only(i) = points%changed_load(i, k)
+    end do
+  end function changed_slots
 
   !> Consistent initial sensitivities of the GGL unknowns for every parameter (module comment).
   subroutine initial_sensitivities(model, points, t, q, v, sq0, sv0, ys, yps, error)
@@ -377,20 +404,20 @@ contains
     type(ida_user_data), pointer :: ud
     type(difference_points), pointer :: points
     type(c_ptr), pointer :: ps(:), pps(:), prs(:)
-    real(c_double), pointer :: y(:), yd(:), r(:), fp(:), s(:), sd(:), rs(:)
+    real(c_double), pointer :: y(:), yd(:), fp(:), s(:), sd(:), rs(:)
     integer :: n, k
     call c_f_pointer(udata, ud)
     call c_f_pointer(ud%extra, points)
     n = 2*ud%nq + 2*ud%nc
     call c_f_pointer(N_VGetArrayPointer(yy), y, [n])
     call c_f_pointer(N_VGetArrayPointer(yp), yd, [n])
-    call c_f_pointer(N_VGetArrayPointer(tmp1), r, [n])
     call c_f_pointer(N_VGetArrayPointer(tmp2), fp, [n])
     call c_f_pointer(yys, ps, [ns]); call c_f_pointer(yps, pps, [ns]); call c_f_pointer(rrs, prs, [ns])
     parameter_residual = 0
     ! F_p of every column first (other models; or kept from the last call at this (t, y, y')),
-    ! then the run's model once: the tangent reuses the kinematics and loads of the last residual
-    ! of ud%model, evaluated here at (t, y, y') into scratch (IDAS's resval is left as it is).
+    ! then the tangents of the run's model: the first evaluates its base point at (t, y, y')
+    ! unless the model's workspace holds it already (eom_residual_tangent), as at the corrector's
+    ! second iteration of a step, and the other columns reuse it.
     if (.not. allocated(points%fp)) allocate (points%fp(n, ns), points%y_at(n), points%yd_at(n))
     if (.not. (points%cached .and. t == points%t_at .and. all(y == points%y_at) .and. all(yd == points%yd_at))) then
       do k = 1, ns
@@ -402,7 +429,6 @@ contains
       call c_f_pointer(N_VGetArrayPointer(prs(k)), rs, [n])
       rs = points%fp(:, k)
     end do
-    call ggl_residual_dense(ud%model, t, y, yd, r)
     do k = 1, ns
       call c_f_pointer(N_VGetArrayPointer(ps(k)), s, [n])
       call c_f_pointer(N_VGetArrayPointer(pps(k)), sd, [n])

@@ -214,6 +214,12 @@ def test_loads_only_partials_match_whole_residual_partials():
         {"refinement.levels": 1, "design.parameters": names})
     plans = sensitivities.plan(model)
     assert {pl.parameter.name: pl.loads_only for pl in plans} == {n: n != "cable.mass_per_length" for n in names}
+    # Each difference takes only the load slots its parameter changes; the others cancel.
+    assert list(model.description["loads"]) == ["rotation_springs", "gravity", "drag"]
+    springs, gravity, drag = [True, False, False], [False, True, False], [False, False, True]
+    assert {pl.parameter.name: pl.changed_loads for pl in plans[:-1]} == {
+        "cable.ei": springs, "cable.damping_time": springs, "drag.cd": drag, "drag.forward_speed": drag,
+        "loads.gravity(3)": gravity}
     t = 0.07                                            # a third of a revolution at 258 rpm
     rates = np.random.default_rng(24).normal(0.0, 1.0, model.nq)
     y, yd = model.core.consistent_ggl_state(model.q0, model.v0 + rates, t)
@@ -223,6 +229,10 @@ def test_loads_only_partials_match_whole_residual_partials():
         weights = [w for _, w, _ in pl.points]
         whole = model.core.parameter_partial(models, weights, pl.h, y, yd, t)
         fast = model.core.parameter_partial(models, weights, pl.h, y, yd, t, loads_only=True)
+        masked = model.core.parameter_partial(models, weights, pl.h, y, yd, t, loads_only=True,
+                                              changed_loads=pl.changed_loads)
         err = np.max(np.abs(fast - whole)) / np.max(np.abs(whole))
-        print(pl.parameter.name, f"{err:.1e}")
+        err_masked = np.max(np.abs(masked - whole)) / np.max(np.abs(whole))
+        print(pl.parameter.name, f"{err:.1e} {err_masked:.1e}")
         assert np.max(np.abs(whole)) > 0.0 and err < 1e-8, (pl.parameter.name, err)
+        assert err_masked < 1e-8, (pl.parameter.name, err_masked)

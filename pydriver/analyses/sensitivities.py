@@ -63,6 +63,8 @@ class Plan:
     def __init__(self, parameter: Parameter, h: float, scheme: str, points: list, loads_only: bool = False):
         self.parameter, self.h, self.scheme, self.points = parameter, h, scheme, points
         self.loads_only = loads_only
+        #: the load slots (in the order built) whose load the rebuilt models change (None: all)
+        self.changed_loads = None
 
 
 #: What pydriver.assembly.build makes of a deck besides the loads: the chain, support A's pose
@@ -93,6 +95,18 @@ def loads_only(model, varied) -> bool:
     loads_partial) instead of whole residuals."""
     return (all(_same(model.description[k], varied.description[k]) for k in NOT_LOADS)
             and all(_same(model.deck.values.get(g), varied.deck.values.get(g)) for g in NOT_LOADS_GROUPS))
+
+
+def changed_loads(model, varied: list) -> list[bool] | None:
+    """Per load slot of ``model`` (the order assembly built them), whether any of the rebuilt
+    models ``varied`` has another load there; None when they hold other kinds of load.  A load
+    is its kind and its packed parameters (``description['loads']``), which is all the core
+    receives; so an unchanged slot gives the same forces at every point, and its share of a
+    difference (weights summing to 0) is exactly 0."""
+    loads = model.description["loads"]
+    if any(list(m.description["loads"]) != list(loads) for m in varied):
+        return None
+    return [any(not _same(loads[kind], m.description["loads"][kind]) for m in varied) for kind in loads]
 
 
 def plan(model) -> list[Plan]:
@@ -138,8 +152,10 @@ def plan(model) -> list[Plan]:
                                     f"'{p.name}' cannot be varied by {2 * h:g} on either side of "
                                     f"{p.value:g}: {err.group}.{err.key}: {err.reason}") from None
             points.append((s, w, models.get(s)))
-        out.append(Plan(p, h, scheme, points,
-                        all(loads_only(model, m) for _, _, m in points if m is not None)))
+        varied = [m for _, _, m in points if m is not None]
+        out.append(Plan(p, h, scheme, points, all(loads_only(model, m) for m in varied)))
+        if out[-1].loads_only:
+            out[-1].changed_loads = changed_loads(model, varied)
     return out
 
 
