@@ -43,7 +43,7 @@ module rotorcable_chain_linear_solver
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_ptr, c_long, c_null_ptr, c_funloc, c_loc, &
                                          c_f_pointer, c_associated
   use rotorcable_kinds, only: dp
-  use rotorcable_linalg, only: dgetrf, dgemm, dgemv, lu_solve
+  use rotorcable_linalg, only: dgetrf, dgemm, small_gemv, lu_solve
   use rotorcable_model, only: model_type, positions_at, joint_diagonal, mass_matrix
   use rotorcable_articulated_body, only: articulated_factors, articulated_factorise, articulated_solve
   use rotorcable_ida_binding, only: sun_linear_solver, sun_linear_solver_ops, SUNLinSolNewEmpty, &
@@ -171,13 +171,13 @@ contains
     call articulated_solve(self%model%chain, self%aba, r2, w)                ! K^-1 r2
     x(1:nq) = b(1:nq)
     if (nc > 0) then
-      call dgemv('N', nc, nq, 1.0_dp, self%g, nc, w, 1, 0.0_dp, gw, 1)
+      call small_gemv('N', nc, nq, 1.0_dp, self%g, w, 0.0_dp, gw)
       z(nc + 1:2*nc) = b(2*nq + nc + 1:2*nq + 2*nc) - gw                     ! rc - C K^-1 r2
-      call dgemv('N', nc, nq, -1.0_dp, self%g, nc, b, 1, -1.0_dp, gw, 1)
+      call small_gemv('N', nc, nq, -1.0_dp, self%g, b, -1.0_dp, gw)
       z(1:nc) = cj*b(2*nq + 1:2*nq + nc) + gw
       call lu_solve(2*nc, self%s, self%s_pivots, z)
-      call dgemv('N', nq, 2*nc, 1.0_dp, self%kinv_b, nq, z, 1, 1.0_dp, w, 1)   ! + K^-1 B z
-      call dgemv('T', nc, nq, -1.0_dp, self%g, nc, z(nc + 1), 1, 1.0_dp, x, 1) ! b1 - G^T m
+      call small_gemv('N', nq, 2*nc, 1.0_dp, self%kinv_b, z, 1.0_dp, w)      ! + K^-1 B z
+      call small_gemv('T', nc, nq, -1.0_dp, self%g, z(nc + 1:), 1.0_dp, x)   ! b1 - G^T m
       x(2*nq + 1:2*nq + 2*nc) = z
     end if
     x(1:nq) = (x(1:nq) + w(:, 1))/cj
