@@ -236,3 +236,31 @@ def test_loads_only_partials_match_whole_residual_partials():
         print(pl.parameter.name, f"{err:.1e} {err_masked:.1e}")
         assert np.max(np.abs(whole)) > 0.0 and err < 1e-8, (pl.parameter.name, err)
         assert err_masked < 1e-8, (pl.parameter.name, err_masked)
+
+
+def test_outputs_from_the_runs_worst_points_and_used_samples(flight_case):
+    # Two shortcuts of the sensitivities must not change which outputs they differentiate:
+    # (1) each joint's worst point around the jacket is taken from the run's own fatigue table
+    # (worst_points_of) instead of being searched again: the same rule on the same series, so
+    # the same names, values and rules (exactly); (2) the outputs' derivatives difference the
+    # sample function only at the samples the rules read (samples_used): every sample, extreme
+    # and cycle reversal a rule reads is among them, and no other.
+    from pydriver.analyses.flight_sensitivities import _Outputs, _signal, worst_points_of
+
+    model, result = flight_case
+    ts = result.timeseries
+    table = result.extra["tables"]["fatigue.csv"]
+    points = worst_points_of(model, table)
+    assert len(points) == model.n_bodies and len(set(points)) > 1   # not all at one angle
+    searched, handed = _Outputs(model, ts), _Outputs(model, ts, worst_points=points)
+    assert handed.names == searched.names and handed.values == searched.values
+    used = set(searched.samples_used().tolist())
+    read = set()
+    for rule in searched.rules:
+        read.update([rule[2]] if rule[0] == "sample" else rule[2:4] if rule[0] == "range"
+                    else list(rule[2].start) + list(rule[2].end))
+    assert used == read and len(used) < len(ts["t"])
+    # A derivative signal that is NaN outside the used samples still gives finite outputs.
+    d = searched.derivatives(lambda spec: _signal(model, ts, spec),
+                             lambda spec: np.where(np.isin(np.arange(len(ts["t"])), sorted(used)), 1.0, np.nan))
+    assert np.all(np.isfinite(d))

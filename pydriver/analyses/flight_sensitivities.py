@@ -87,8 +87,11 @@ class _Outputs:
     """The outputs of a flight's revolution and, for each, how its derivative follows from the
     derivative of the time series (selection by the base run, held fixed)."""
 
-    def __init__(self, model, ts, periodic: bool = True):
+    def __init__(self, model, ts, periodic: bool = True, worst_points=None):
+        """``worst_points``: per joint, the index of its worst point around the jacket as the
+        run's own fatigue analysis found it (the same rule on the same series); None: found here."""
         self.periodic = periodic
+        self.worst_points = worst_points
         self.names, self.units, self.values, self.rules = [], [], [], []
         nb = model.n_bodies
         for name in REACTION_NAMES[:12 if model.nc else 6]:
@@ -125,7 +128,7 @@ class _Outputs:
         for j in range(1, model.n_bodies + 1):
             a, b, scale = _components(ts, j, f["sn_quantity"], radius[j - 1])
             best = None
-            for k in range(points):
+            for k in range(points) if self.worst_points is None else [self.worst_points[j - 1]]:
                 x = scale * (np.sin(phi[k]) * a - np.cos(phi[k]) * b)
                 damage = fatigue.miner_damage(fatigue.cycles(x, periodic=periodic), sn)
                 if best is None or damage > best[0]:
@@ -273,6 +276,15 @@ def _signal(model, ts, spec) -> np.ndarray:
     return scale * (np.sin(phi) * a - np.cos(phi) * b)
 
 
+def worst_points_of(model, fatigue_table: dict | None) -> list[int] | None:
+    """Per joint, the index of the worst point around the jacket from a run's fatigue table
+    (``fatigue.csv``'s ``angle_deg``, 360 k / points degrees); None without one."""
+    if not fatigue_table or "angle_deg" not in fatigue_table:
+        return None
+    points = int(model.deck.values["fatigue"]["circumferential_points"])
+    return [int(round(a / 360.0 * points)) % points for a in fatigue_table["angle_deg"]]
+
+
 def flight_outputs(model, ts) -> tuple[list, list, np.ndarray]:
     """(names, units, values) of the outputs whose flight sensitivities are reported."""
     o = _Outputs(model, ts)
@@ -329,10 +341,12 @@ def output_derivatives(model, plans, outputs: _Outputs, ts: dict, t, q, v, sq, s
             tt = t * pl.parameter.value / (pl.parameter.value + s * pl.h) if speed is not None and speed[k] else t
             runs.append((w, mm, chunk_columns(mm, tt, mm.core.sample(tt, qs, vs), qs, vs)))
 
-        def d_signal(spec, runs=runs, h=pl.h):
-            full = np.full(n_samples, np.nan)
-            full[used] = sum(w * _signal(mm, c, spec) for w, mm, c in runs) / h
-            return full
+        def d_signal(spec, runs=runs, h=pl.h, memo=dict()):
+            # A column read by several outputs (its peak and amplitude) is differenced once.
+            if spec not in memo:
+                memo[spec] = np.full(n_samples, np.nan)
+                memo[spec][used] = sum(w * _signal(mm, c, spec) for w, mm, c in runs) / h
+            return memo[spec]
 
         values.append(outputs.derivatives(lambda spec: _signal(model, ts, spec), d_signal))
     return values
@@ -428,7 +442,7 @@ def _periodic_start_krylov(model, settings, period, q0, v0, d_x, t_out):
                    "(the monodromy's direct solve)")
 
 
-def flight_sensitivities(model, plans, period: float, start: dict, ts: dict) -> dict:
+def flight_sensitivities(model, plans, period: float, start: dict, ts: dict, worst_points=None) -> dict:
     """d(output)/dp of a flight's periodic revolution (module doc).
 
     Parameters
@@ -445,6 +459,9 @@ def flight_sensitivities(model, plans, period: float, start: dict, ts: dict) -> 
     ts : dict
         The run's last revolution (time series), which selects the peaks and cycles; its times
         relative to its start are the output times.
+    worst_points : list of int, optional
+        Per joint, its worst point around the jacket as the run's fatigue analysis found it
+        (:func:`worst_points_of`); None: found again here.
     """
     t_wall = time.perf_counter()
     settings = model.solver_settings()
@@ -498,7 +515,7 @@ def flight_sensitivities(model, plans, period: float, start: dict, ts: dict) -> 
         d_end = np.vstack([basis.T @ d_end[:nq], basis.T @ d_end[nq:]])
         d_start = red
     periodicity = float(np.max(np.abs(d_end - d_start)) / max(float(np.max(np.abs(d_start))), 1e-300))
-    outputs = _Outputs(model, ts)
+    outputs = _Outputs(model, ts, worst_points=worst_points)
     values = output_derivatives(model, plans, outputs, ts, t_rel, q, v, sq, sv, speed)
     per_hour = np.array([rule[0] == "damage" for rule in outputs.rules])
     for k in np.flatnonzero(speed):

@@ -310,9 +310,10 @@ def attach_sensitivities(model, result, plans: list[Plan]) -> None:
     if not plans:
         return
     if model.analysis == "flight":
-        from pydriver.analyses.flight_sensitivities import flight_sensitivities
+        from pydriver.analyses.flight_sensitivities import flight_sensitivities, worst_points_of
         orbit = result.extra["orbit"]
-        sens = flight_sensitivities(model, plans, orbit["period_s"], orbit, result.timeseries)
+        sens = flight_sensitivities(model, plans, orbit["period_s"], orbit, result.timeseries,
+                                    worst_points_of(model, result.extra.get("tables", {}).get("fatigue.csv")))
     elif model.analysis == "dynamic":
         from pydriver.analyses.dynamic_sensitivities import dynamic_sensitivities
         sens = dynamic_sensitivities(model, plans, result.timeseries)
