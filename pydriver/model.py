@@ -18,6 +18,16 @@ from pydriver.deckfile import Deck, read_deck
 AUTO_CHAIN_MIN_COORDS = 32
 
 
+#: A flight's sensitivity integrations (IDAS with one column per parameter or Krylov direction)
+#: with ``'auto'`` take the block solver below this many coordinates.  Every column repeats the
+#: per-step work, so the exact matrix's fewer steps pay off to larger chains than for the state
+#: alone: measured on the main job's cable with 8 parameters (benchmarks/README.md, "Design
+#: sensitivities of a flight"), the sensitivities' wall time with the chain against the block
+#: solver (median of 3) at n = 11 (33 coordinates) 0.62 against 0.51 s, n = 22 (66) 1.37
+#: against 1.07 s, n = 44 (132) 1.90 against 2.50 s: the crossover lies between 66 and 132.
+AUTO_SENSITIVITY_CHAIN_MIN_COORDS = 96
+
+
 def resolve_linear_solver(choice: str, n_coords: int) -> str:
     """The IDA linear solver for ``&solver linear_solver = choice`` on a model of ``n_coords``
     coordinates: ``'auto'`` is the block solver below ``AUTO_CHAIN_MIN_COORDS`` and the O(n) chain
@@ -96,6 +106,14 @@ class Model:
     def linear_solver(self) -> str:
         """The IDA linear solver a run uses (:func:`resolve_linear_solver` of the deck's)."""
         return resolve_linear_solver(self.deck.values["solver"]["linear_solver"], self.nq)
+
+    def sensitivity_solver_settings(self) -> dict:
+        """The &solver values of a flight's sensitivity integrations: the run's, with 'auto'
+        resolved for them (:data:`AUTO_SENSITIVITY_CHAIN_MIN_COORDS`); a deck's own choice is kept."""
+        choice = self.deck.values["solver"]["linear_solver"]
+        if choice == "auto":
+            choice = "chain" if self.nq >= AUTO_SENSITIVITY_CHAIN_MIN_COORDS else "block"
+        return solver_settings(self.deck, choice)
 
     def solver_settings(self) -> dict:
         """The &solver values the integrator needs, by the names pydriver.components.SOLVER

@@ -464,7 +464,7 @@ def flight_sensitivities(model, plans, period: float, start: dict, ts: dict, wor
         (:func:`worst_points_of`); None: found again here.
     """
     t_wall = time.perf_counter()
-    settings = model.solver_settings()
+    settings = model.sensitivity_solver_settings()
     points = [_points(pl) for pl in plans]
     n_par, nq = len(plans), model.nq
     q0, v0 = start["q0"], start["v0"]
@@ -527,7 +527,7 @@ def flight_sensitivities(model, plans, period: float, start: dict, ts: dict, wor
         "at the fixed state), periodic start by (I - Phi)^-1 dX(T)/dp; peaks at the arg-max sample, damage "
         "and DEL with the rainflow cycle set held fixed (docs/model.md, \"Design sensitivities of a flight\")")
     sens["summary"]["periodicity_residual"] = periodicity
-    solver = {"first": first["stats"], **how}
+    solver = {"first": first["stats"], **how, "linear_solver": settings["linear_solver"]}
     if second["stats"] is not None:
         solver["second"] = second["stats"]
     sens["summary"]["solver"] = solver
