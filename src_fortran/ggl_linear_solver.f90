@@ -36,7 +36,7 @@ module rotorcable_ggl_linear_solver
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_ptr, c_null_ptr, c_funloc, c_loc, &
                                          c_f_pointer, c_associated
   use rotorcable_kinds, only: dp
-  use rotorcable_linalg, only: dgetrf, dgetrs, dgemv, lu_solve
+  use rotorcable_linalg, only: dgetrf, dgetrs, small_gemv, lu_solve
   use rotorcable_ida_binding, only: sun_linear_solver, sun_linear_solver_ops, SUNLinSolNewEmpty, &
                                     SUNLinSolFreeEmpty, SUNDenseMatrix_Data, N_VGetArrayPointer, &
                                     SUNLINEARSOLVER_DIRECT, SUNLS_SUCCESS, SUNLS_LUFACT_FAIL
@@ -141,8 +141,8 @@ contains
   end subroutine block_factorise
 
   !> Solve J x = b with the factors of block_factorise (x may not alias b): four
-  !> matrix-vector products (BLAS dgemv) and two LU solves (one LU solve of the whole matrix
-  !> above CJ_DENSE).
+  !> matrix-vector products (small_gemv: compiled loops, as the chain solver's) and two LU
+  !> solves (one LU solve of the whole matrix above CJ_DENSE).
   subroutine block_solve(self, b, x)
     type(ggl_block_solver), intent(in) :: self  !< factorised solver
     real(dp), intent(in) :: b(:)              !< right-hand side (b1, b2, b3, b4)
@@ -155,17 +155,17 @@ contains
       call lu_solve(size(b), self%lu, self%lu_pivots, x)
       return
     end if
-    call dgemv('N', m, nq, 1.0_dp, self%b1_rows, m, b, 1, 0.0_dp, t, 1)   ! [Kq/cj; G; Cq/cj] b1
+    call small_gemv('N', m, nq, 1.0_dp, self%b1_rows, b, 0.0_dp, t)       ! [Kq/cj; G; Cq/cj] b1
     w = b(nq + 1:2*nq) - t(1:nq)                                           ! r2
     call lu_solve(nq, self%k, self%k_pivots, w)                            ! K^-1 r2
     x(1:nq) = b(1:nq)
     if (nc > 0) then
       z(1:nc) = cj*b(2*nq + 1:2*nq + nc) - t(nq + 1:nq + nc)               ! rc
       z(nc + 1:2*nc) = b(2*nq + nc + 1:2*nq + 2*nc) - t(nq + nc + 1:m)
-      call dgemv('N', 2*nc, nq, -1.0_dp, self%c_rows, 2*nc, w, 1, 1.0_dp, z, 1)       ! - C K^-1 r2
+      call small_gemv('N', 2*nc, nq, -1.0_dp, self%c_rows, w, 1.0_dp, z)          ! - C K^-1 r2
       call lu_solve(2*nc, self%s, self%s_pivots, z)
-      call dgemv('N', nq, 2*nc, 1.0_dp, self%kinv_b, nq, z, 1, 1.0_dp, w, 1)          ! + K^-1 B z
-      call dgemv('N', nq, nc, -1.0_dp, self%g_t, nq, z(nc + 1:), 1, 1.0_dp, x, 1)     ! b1 - G^T m
+      call small_gemv('N', nq, 2*nc, 1.0_dp, self%kinv_b, z, 1.0_dp, w)           ! + K^-1 B z
+      call small_gemv('N', nq, nc, -1.0_dp, self%g_t, z(nc + 1:), 1.0_dp, x)      ! b1 - G^T m
       x(2*nq + 1:2*nq + 2*nc) = z
     end if
     x(1:nq) = (x(1:nq) + w)/cj
