@@ -173,10 +173,14 @@ def test_periodic_start_of_constraint_and_speed_parameters_by_monodromy_and_kryl
     # particular part normal to it (the core's least-norm correction G s_q = -g_p, orthogonal to
     # the monodromy's basis N), and both periodic starts must carry it; the rotor speed's right-
     # hand side carries the secular term (T/p) y'(0).  At rtol 1e-9 and periodic_tol 1e-9 m they
-    # agree to the integration error (measured 1.5e-6 for clamp B's x, 2.8e-7 for the length,
-    # 2.0e-6 for the speed with the block Krylov start; 1.7e-7, 4.5e-8, 9.9e-7 with one GMRES per
-    # parameter; 3.2e-4 and 4.1e-5 at the deck's rtol 1e-6 for the first two, which shows the
-    # difference is integration error): bound 1e-5.
+    # agree to the integration error of two different integrations: the monodromy's Phi comes
+    # from the run's own linear solver (the chain solver at these 33 coordinates), dX(T)/dp from
+    # the sensitivity integrations' (the block solver), and their errors no longer cancel.
+    # Measured 1.1e-5, 2.5e-6, 7.4e-6 (clamp B's x, the length, the speed); 1.5e-6, 2.8e-7,
+    # 2.0e-6 when every integration used the chain solver; 3.2e-4 and 4.1e-5 at the deck's rtol
+    # 1e-6 for the first two, which shows the difference is integration error.  Against a run at
+    # rtol 1e-11, the periodic start of clamp B's x alone is within 6e-7 ... 4.2e-6 by either
+    # method and either solver.  Bound 1e-4: ten times the largest integration error seen.
     names = ["clamp_b.position(1)", "chain.total_length", "rotor.rpm"]
     model = Model.from_deck(INPUTS / "uh60_part2_forward_flight_cable.nml").with_changes(
         {"refinement.levels": 1, "design.parameters": names, "solver.periodic_tol": 1.0e-9, "solver.rtol": 1.0e-9,
@@ -191,7 +195,7 @@ def test_periodic_start_of_constraint_and_speed_parameters_by_monodromy_and_kryl
             scale[family(n)] = max(scale.get(family(n), 0.0), abs(ref[n][p]))
         worst = max(abs(d[n][p] - ref[n][p]) / scale[family(n)] for n in ref)
         print(f"{p}: monodromy against Krylov periodic start, worst relative difference {worst:.1e}")
-        assert worst < 1e-5, (p, worst)
+        assert worst < 1e-4, (p, worst)
 
 
 
