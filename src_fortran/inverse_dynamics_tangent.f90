@@ -5,28 +5,82 @@
 !> derivatives; here by the product rule on this code's world-frame pass).
 !>
 !> World-frame inertia R diag(theta) R^T turns with the body: d(I x) = dtheta x (I x)
-!> - I (dtheta x x) + I dx.  Bodies before dst%first do not move: there only the transported
-!> wrench changes, which costs a few flops per body.
+!> - I (dtheta x x) + I dx = dtheta x (I x) + I (dx - dtheta x x).  Bodies before dst%first do
+!> not move: there only the transported wrench changes, which costs a few flops per body.
+!>
+!> The state-only factors, each body's world inertia I and I w, I alpha (relative to a turning
+!> frame where the pass leaves its couples out), are formed once per state by
+!> linearise_inertia and shared by all the columns taken there (8 parameters x 2 corrector
+!> iterations, or a Jacobian's 44 columns): each column then costs two 3 x 3 products a body
+!> instead of six rotations R diag(theta) R^T x.
 module rotorcable_inverse_dynamics_tangent
   use rotorcable_kinds, only: dp
   use rotorcable_chain, only: chain_type
   use rotorcable_kinematics, only: chain_state
   use rotorcable_kinematics_tangent, only: chain_tangent
-  use rotorcable_inverse_dynamics, only: world_inertia_times
   use rotorcable_rotations, only: cross
   implicit none
   private
-  public :: inverse_dynamics_tangent
+  public :: inverse_dynamics_tangent, inertia_linearisation, linearise_inertia
+
+  !> The pass's state-only factors at one state (linearise_inertia).
+  type :: inertia_linearisation
+    real(dp), allocatable :: inertia(:, :, :)  !< (3,3,n) R diag(theta) R^T [kg m^2]
+    real(dp), allocatable :: iw(:, :)          !< (3,n) I w (w relative where the pass says so)
+    real(dp), allocatable :: ia(:, :)          !< (3,n) I alpha (likewise)
+  end type inertia_linearisation
 
 contains
+
+  !> Every body's world inertia and I w, I alpha at the state st (its frames and motion), with
+  !> w, alpha relative to the frame turning at frame_omega, frame_omega_dot when they are given
+  !> (as inverse_dynamics and its tangent take them).
+  pure subroutine linearise_inertia(chain, st, lin, frame_omega, frame_omega_dot)
+    type(chain_type), intent(in) :: chain     !< chain description
+    type(chain_state), intent(in) :: st       !< frames and motion of the state
+    type(inertia_linearisation), intent(inout) :: lin  !< factors out
+    real(dp), intent(in), optional :: frame_omega(3)      !< as in inverse_dynamics
+    real(dp), intent(in), optional :: frame_omega_dot(3)  !< as in inverse_dynamics
+    real(dp) :: r(3, 3), w(3), a(3)
+    integer :: j, k, l, n
+    n = chain%n_bodies
+    if (allocated(lin%inertia)) then
+      if (size(lin%inertia, 3) /= n) deallocate (lin%inertia, lin%iw, lin%ia)
+    end if
+    if (.not. allocated(lin%inertia)) allocate (lin%inertia(3, 3, n), lin%iw(3, n), lin%ia(3, n))
+    do j = 1, n
+      r = st%rot(:, :, j)
+      do l = 1, 3
+        do k = 1, 3
+          lin%inertia(k, l, j) = sum(r(k, :)*chain%inertia(:, j)*r(l, :))
+        end do
+      end do
+      w = st%omega(:, j)
+      a = st%alpha(:, j)
+      if (present(frame_omega) .and. present(frame_omega_dot)) then
+        w = w - frame_omega
+        a = a - frame_omega_dot - cross(frame_omega, w)
+      end if
+      lin%iw(:, j) = times(lin%inertia(:, :, j), w)
+      lin%ia(:, j) = times(lin%inertia(:, :, j), a)
+    end do
+  end subroutine linearise_inertia
+
+  !> m x for a 3 x 3 m, written out (inlined; no temporaries).
+  pure function times(m, x) result(y)
+    real(dp), intent(in) :: m(3, 3), x(3)
+    real(dp) :: y(3)
+    y = m(:, 1)*x(1) + m(:, 2)*x(2) + m(:, 3)*x(3)
+  end function times
 
   !> d(tau) of inverse_dynamics for the change dst of the state, dforce, dmoment of the applied
   !> loads and dtip_force, dtip_moment of clamp B.  The wrenches of the state (st%joint_force,
   !> st%joint_moment) must be those of the pass being differentiated, with the same loads.
-  pure subroutine inverse_dynamics_tangent(chain, st, dst, force, dforce, dmoment, tip_force, dtip_force, &
+  pure subroutine inverse_dynamics_tangent(chain, st, lin, dst, force, dforce, dmoment, tip_force, dtip_force, &
                                            dtip_moment, dtau, frame_omega, frame_omega_dot)
     type(chain_type), intent(in) :: chain     !< chain description
     type(chain_state), intent(in) :: st       !< state and wrenches of the pass
+    type(inertia_linearisation), intent(in) :: lin  !< linearise_inertia at st, same frame arguments
     type(chain_tangent), intent(in) :: dst    !< change of the state
     real(dp), intent(in) :: force(:, :)       !< (3,n) applied forces at the CMs [N]
     real(dp), intent(in) :: dforce(:, :)      !< (3,n) their change
@@ -39,7 +93,6 @@ contains
     real(dp), intent(in), optional :: frame_omega_dot(3)  !< as in inverse_dynamics
     real(dp) :: f_child(3), df_child(3), dn_child(3), f_net(3), df_net(3), df(3), dn(3), dn_cm(3)
     real(dp) :: w(3), a(3), dw(3), da(3), th(3), iw(3), diw(3), arm_cm(3), arm_link(3), darm_cm(3), darm_link(3)
-    real(dp) :: tw(3), ta(3)
     integer :: j, k, i0, nd, n
     logical :: relative
 
@@ -69,12 +122,10 @@ contains
           da = da - cross(frame_omega, dw)
         end if
         th = dst%dtheta(:, j)
-        iw = world_inertia_times(chain, st, j, w)
-        tw = cross(th, w)
-        diw = cross(th, iw) - world_inertia_times(chain, st, j, tw) + world_inertia_times(chain, st, j, dw)
-        ta = cross(th, a)
-        dn_cm = cross(th, world_inertia_times(chain, st, j, a)) - world_inertia_times(chain, st, j, ta) &
-                + world_inertia_times(chain, st, j, da) + cross(dw, iw) + cross(w, diw) - dmoment(:, j)
+        iw = lin%iw(:, j)
+        diw = cross(th, iw) + times(lin%inertia(:, :, j), dw - cross(th, w))
+        dn_cm = cross(th, lin%ia(:, j)) + times(lin%inertia(:, :, j), da - cross(th, a)) + cross(dw, iw) &
+                + cross(w, diw) - dmoment(:, j)
         darm_cm = dst%dcm(:, j) - dst%djoint_point(:, j)
         darm_link = dst%djoint_point(:, j + 1) - dst%djoint_point(:, j)
         df = df_net + df_child

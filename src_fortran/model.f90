@@ -15,12 +15,13 @@
 !> point, and the constraint rows, energies, joint loads and shapes each ask for theirs.  The
 !> record costs a copy of the state per evaluation and a comparison where it is read.
 module rotorcable_model
+  use, intrinsic :: iso_fortran_env, only: int64
   use rotorcable_kinds, only: dp
   use rotorcable_chain, only: chain_type
   use rotorcable_kinematics, only: chain_state, state_allocate, chain_positions, chain_motion, motion_seed
   use rotorcable_inverse_dynamics, only: inverse_dynamics, world_inertia_times
   use rotorcable_kinematics_tangent, only: chain_tangent, tangent_allocate, positions_tangent, motion_tangent
-  use rotorcable_inverse_dynamics_tangent, only: inverse_dynamics_tangent
+  use rotorcable_inverse_dynamics_tangent, only: inverse_dynamics_tangent, inertia_linearisation, linearise_inertia
   use rotorcable_mass_matrix, only: mass_matrix_crba
   use rotorcable_linalg, only: solve_dense
   use rotorcable_rotations, only: cross
@@ -85,6 +86,7 @@ module rotorcable_model
     real(dp), allocatable :: dforce(:, :)     !< (3,n) change of the applied forces
     real(dp), allocatable :: dmoment(:, :)    !< (3,n) change of the applied moments
     real(dp), allocatable :: dtau(:)          !< (nq) change of the applied generalized forces
+    type(inertia_linearisation) :: lin_inertia  !< the tangent pass's state-only factors
   end type model_type
 
 contains
@@ -221,18 +223,23 @@ contains
     if (present(lambda)) model%ws%lambda(:) = lambda(1:model%nc)
   end subroutine record
 
-  !> a and b hold the same bits (NaN never matches; -0 and +0 differ).
+  !> a and b hold the same bits (NaN never matches; -0 and +0 differ).  The loop ors the bits'
+  !> differences without an early exit, so the compiler vectorises it: the record is read ~10^5
+  !> times a run (every residual and tangent), and equal states, the common case, read it all.
   pure logical function same(a, b)
     real(dp), intent(in) :: a(:), b(:)
+    integer(int64) :: differ
+    logical :: nan
     integer :: i
     same = size(a) == size(b)
     if (.not. same) return
+    differ = 0_int64
+    nan = .false.
     do i = 1, size(a)
-      if (.not. same_bits(a(i), b(i))) then
-        same = .false.
-        return
-      end if
+      differ = ior(differ, ieor(transfer(a(i), 0_int64), transfer(b(i), 0_int64)))
+      nan = nan .or. a(i) /= a(i)
     end do
+    same = differ == 0_int64 .and. .not. nan
   end function same
 
   pure logical function same_bits(a, b)
@@ -294,8 +301,14 @@ contains
     end if
     if (.not. model%ws%linearised) then       ! once per state, for all the columns taken there
       do i = 1, size(model%loads)
-        call model%loads(i)%term%linearise(model%chain, model%st, q)
+        call model%loads(i)%term%linearise(model%chain, model%st, q, v)
       end do
+      if (model%nc > 0) call model%support_b%linearise(model%chain, model%st)
+      if (model%fs%rotating .and. .not. model%fs%body_couples) then
+        call linearise_inertia(model%chain, model%st, model%lin_inertia, model%fs%omega, model%fs%omega_dot)
+      else
+        call linearise_inertia(model%chain, model%st, model%lin_inertia)
+      end if
       model%ws%linearised = .true.
     end if
     call positions_tangent(model%chain, model%st, dq, first, model%dst)
@@ -314,10 +327,12 @@ contains
                                     df_b, dm_b)
     end if
     if (model%fs%rotating .and. .not. model%fs%body_couples) then
-      call inverse_dynamics_tangent(model%chain, model%st, model%dst, model%force, model%dforce, model%dmoment, f_b, &
+      call inverse_dynamics_tangent(model%chain, model%st, model%lin_inertia, model%dst, model%force, model%dforce, &
+                                    model%dmoment, f_b, &
                                     df_b, dm_b, dres, model%fs%omega, model%fs%omega_dot)
     else
-      call inverse_dynamics_tangent(model%chain, model%st, model%dst, model%force, model%dforce, model%dmoment, f_b, &
+      call inverse_dynamics_tangent(model%chain, model%st, model%lin_inertia, model%dst, model%force, model%dforce, &
+                                    model%dmoment, f_b, &
                                     df_b, dm_b, dres)
     end if
     dres = dres - model%dtau
@@ -351,22 +366,34 @@ contains
   end subroutine add_load_forces
 
   !> Generalized forces Q = J^T (force, moment) + tau of forces at the CMs, moments and joint
-  !> torques, at this model's state (t, q, v): the Newton-Euler pass (eq. 3.24, 4.52) with them
-  !> less the pass without them, whose inertia and frame terms are the same and cancel.  The
-  !> passes overwrite the joint wrenches, so afterwards the workspace holds the motion only.
+  !> torques, at this model's state (t, q, v), by one backward pass of the applied loads alone
+  !> (the load terms of the Newton-Euler pass, eq. 3.24, 4.52, whose inertia and frame terms
+  !> do not depend on them): the outboard force F_j = F_{j+1} + f_j and moment about P_j
+  !> N_j = N_{j+1} + (P_{j+1} - P_j) x F_{j+1} + m_j + (C_j - P_j) x f_j, and Q_k = a_k . N_j
+  !> for joint j's axes (all joints turn).  The joint wrenches of the workspace are left alone.
   subroutine applied_generalized_forces(model, t, q, v, force, moment, tau, gen)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t                 !< time [s]
     real(dp), intent(in) :: q(:), v(:)        !< coordinates and rates
     real(dp), intent(in) :: force(:, :), moment(:, :), tau(:)  !< (3,n), (3,n), (nq)
     real(dp), intent(out) :: gen(:)           !< (nq) Q [Nm]
-    real(dp) :: with_loads(model%nq), without(model%nq), zero(3), f_a(3), m_a(3)
-    zero = 0.0_dp
+    real(dp) :: f_out(3), n_out(3), link(3), arm(3), f(3)
+    integer :: j, k, i0
     call state_motion(model, t, q, v)
-    call newton_euler(model, force, moment, zero, zero, with_loads, f_a, m_a)
-    call newton_euler(model, 0.0_dp*force, 0.0_dp*moment, zero, zero, without, f_a, m_a)
-    gen = without - with_loads + tau
-    model%ws%holds = min(model%ws%holds, HOLDS_MOTION)
+    f_out = 0.0_dp
+    n_out = 0.0_dp
+    do j = model%chain%n_bodies, 1, -1
+      ! Fixed-size copies: cross products of array sections make heap temporaries.
+      link = model%st%joint_point(:, j + 1) - model%st%joint_point(:, j)
+      arm = model%st%cm(:, j) - model%st%joint_point(:, j)
+      f = force(:, j)
+      n_out = n_out + cross(link, f_out) + moment(:, j) + cross(arm, f)
+      f_out = f_out + f
+      i0 = model%chain%first_coord(j) - 1
+      do k = 1, model%chain%n_joint_coords(j)
+        gen(i0 + k) = dot_product(model%st%axes(:, k, j), n_out) + tau(i0 + k)
+      end do
+    end do
   end subroutine applied_generalized_forces
 
   !> The Newton-Euler pass of the workspace's motion under the applied forces and support B's

@@ -280,8 +280,8 @@ contains
   !>     F_p (v rows) = -J^T (sum_i w_i (force_i, moment_i)) / h - sum_i w_i tau_i / h,
   !>
   !> the rebuilt models' loads evaluated on the run's kinematics at (t, q, v) and mapped by one
-  !> pair of Newton-Euler passes (applied_generalized_forces): no kinematics, inertia or
-  !> constraint rows per point, which the whole residuals of the rebuilt models repeat.  The
+  !> backward pass of J^T (applied_generalized_forces): no kinematics, inertia or constraint
+  !> rows per point, which the whole residuals of the rebuilt models repeat.  The
   !> same difference formula as parameter_partial's, so the same truncation and round-off.
   subroutine loads_partial(points, k, t, y, yd, fp)
     type(difference_points), intent(inout) :: points  !< rebuilt models and weights

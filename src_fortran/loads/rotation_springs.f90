@@ -43,11 +43,11 @@ module rotorcable_loads_rotation_springs
     real(dp), allocatable :: stiffness(:, :)  !< (3, n) K diagonal [Nm/rad]; 0 for a locked joint
     real(dp), allocatable :: damping(:, :)    !< (3, n) D diagonal [Nms/rad]
     logical, allocatable :: free(:)           !< (n) joint j has coordinates
-    ! joint_terms at the state of the last linearise, which the tangents there read: the
-    ! columns of one state share one evaluation of the trigonometry.
-    real(dp), allocatable :: phi(:, :)        !< (3, n) rotation vectors [rad]
-    real(dp), allocatable :: axes(:, :, :)    !< (3, 3, n) A, the joint axes in the child's frame
-    real(dp), allocatable :: coef(:, :)       !< (2, n) J_r^-1's coefficient c and dc/da
+    ! At the state of the last linearise, which the tangents there read: a joint's torque
+    ! change is linear in the joint's own (dq, dv), so the columns of one state (8 parameters
+    ! x 2 corrector iterations, 44 Jacobian columns) share this 3 x 6 matrix per joint, formed
+    ! once, instead of repeating its ~570 instructions of trigonometry-free algebra each.
+    real(dp), allocatable :: torque_tangent(:, :, :)  !< (3, 6, n) d(tau_j)/d(dq_j, dv_j)
   contains
     procedure :: add_forces
     procedure :: linearise
@@ -81,8 +81,8 @@ contains
     load%stiffness = 0.0_dp
     load%damping = 0.0_dp
     load%free = .not. chain%locked
-    allocate (load%phi(3, chain%n_bodies), load%axes(3, 3, chain%n_bodies), load%coef(2, chain%n_bodies))
-    load%phi = 0.0_dp; load%axes = 0.0_dp; load%coef = 0.0_dp
+    allocate (load%torque_tangent(3, 6, chain%n_bodies))
+    load%torque_tangent = 0.0_dp
     k = 0
     do j = 1, chain%n_bodies
       if (chain%locked(j)) cycle
@@ -209,59 +209,88 @@ contains
     end if
   end subroutine jacobian_coefficient
 
-  !> joint_terms of every free joint at q, for the tangents at this state.
-  subroutine linearise(self, chain, st, q)
+  !> The tangents' matrix of every free joint at (q, v).  Its angle columns are
+  !> joint_torque_tangent of the joint's three unit angle directions (the map is linear in
+  !> them), the same formula as one direction at a time summed in another order; its rate
+  !> columns are that formula's rate part in closed form, d(tau)/d(qdot) = -A^T D A.
+  subroutine linearise(self, chain, st, q, v)
     class(rotation_springs_load), intent(inout) :: self
     type(chain_type), intent(in) :: chain     !< chain description
     type(chain_state), intent(in) :: st       !< frames, velocities at the state (not needed)
-    real(dp), intent(in) :: q(:)              !< coordinates [rad]
-    integer :: j
+    real(dp), intent(in) :: q(:), v(:)        !< coordinates [rad] and rates [rad/s]
+    real(dp) :: phi(3), a(3, 3), c, dc_da, unit(3), zero(3)
+    integer :: j, i0, k, l
+    zero = 0.0_dp
     do j = 1, chain%n_bodies
       if (chain%locked(j)) cycle
-      call joint_terms(chain, j, q, self%phi(:, j), self%axes(:, :, j), self%coef(1, j), self%coef(2, j))
+      i0 = chain%first_coord(j)
+      call joint_terms(chain, j, q, phi, a, c, dc_da)
+      do k = 1, 3
+        unit = 0.0_dp
+        unit(k) = 1.0_dp
+        self%torque_tangent(:, k, j) = joint_torque_tangent(phi, a, c, dc_da, self%stiffness(:, j), &
+                                                            self%damping(:, j), v(i0:i0 + 2), unit, zero)
+        do l = 1, 3
+          self%torque_tangent(l, k + 3, j) = -sum(a(:, l)*self%damping(:, j)*a(:, k))
+        end do
+      end do
     end do
   end subroutine linearise
 
   !> Tangent of tau_j = -A^T (g(phi) + D A qdot_j), g = J_r^-T K phi = K phi - phi x K phi / 2
-  !> + c phi x (phi x K phi), for the joint's own (dq, dv).  With delta = A dq the relative
-  !> rotation's change in the child's axes (dR_rel = R_rel [delta]x): dphi = J_r^-1(phi) delta,
-  !> and A (joint_terms) changes by dA = [A_1 x delta, (A_2 x e_z) dq_3, 0] (d(R^T e) = R^T e x
-  !> delta for the first column; the second is R_yz^T e_y, which turns by A_2 dq_2 + e_z dq_3).
+  !> + c phi x (phi x K phi), for the joint's own (dq, dv), from linearise's matrix.
   pure subroutine add_force_tangent(self, chain, st, dst, fs, t, q, v, dq, dv, dforce, dmoment, dtau)
     class(rotation_springs_load), intent(in) :: self
     include 'force_tangent_arguments.inc'
-    real(dp) :: phi(3), dphi(3), a(3, 3), da(3, 3), kphi(3), dkphi(3), pk(3), delta(3), w(3), dw(3)
-    real(dp) :: g(3), dg(3), torque(3), dtorque(3), c, dc_da, dc, size_phi, rates(3), d_angles(3), d_rates(3)
-    integer :: j, i0
+    real(dp) :: s
+    integer :: j, i0, i, k
     do j = dst%first, chain%n_bodies
       if (chain%locked(j)) cycle
-      i0 = chain%first_coord(j)
-      ! joint_terms at this state, kept by linearise (the model calls it before the tangents).
-      phi = self%phi(:, j); a = self%axes(:, :, j); c = self%coef(1, j); dc_da = self%coef(2, j)
-      ! Fixed-size copies: matmul on them is inlined, not a library call.
-      rates = v(i0:i0 + 2); d_angles = dq(i0:i0 + 2); d_rates = dv(i0:i0 + 2)
-      delta = matmul(a, d_angles)
-      da(:, 1) = cross(a(:, 1), delta)
-      da(:, 2) = [a(2, 2), -a(1, 2), 0.0_dp]*d_angles(3)
-      da(:, 3) = 0.0_dp
-      pk = cross(phi, delta)
-      dphi = delta + 0.5_dp*pk + c*cross(phi, pk)
-      size_phi = norm2(phi)
-      dc = 0.0_dp
-      if (size_phi > 0.0_dp) dc = dc_da*dot_product(phi, dphi)/size_phi
-      kphi = self%stiffness(:, j)*phi
-      dkphi = self%stiffness(:, j)*dphi
-      pk = cross(phi, kphi)
-      g = kphi - 0.5_dp*pk + c*cross(phi, pk)
-      dg = dkphi - 0.5_dp*(cross(dphi, kphi) + cross(phi, dkphi)) + dc*cross(phi, pk) &
-           + c*(cross(dphi, pk) + cross(phi, cross(dphi, kphi) + cross(phi, dkphi)))
-      w = matmul(a, rates)
-      dw = matmul(da, rates) + matmul(a, d_rates)
-      torque = g + self%damping(:, j)*w
-      dtorque = dg + self%damping(:, j)*dw
-      dtau(i0:i0 + 2) = dtau(i0:i0 + 2) - transposed_times(da, torque) - transposed_times(a, dtorque)
+      i0 = chain%first_coord(j) - 1
+      do i = 1, 3
+        s = 0.0_dp
+        do k = 1, 3
+          s = s + self%torque_tangent(i, k, j)*dq(i0 + k) + self%torque_tangent(i, k + 3, j)*dv(i0 + k)
+        end do
+        dtau(i0 + i) = dtau(i0 + i) + s
+      end do
     end do
   end subroutine add_force_tangent
+
+  !> d(tau_j) for the joint's own change (d_angles, d_rates) at its joint_terms (phi, A, c,
+  !> dc/da), stiffness k, damping d and rates.  With delta = A dq the relative rotation's change
+  !> in the child's axes (dR_rel = R_rel [delta]x): dphi = J_r^-1(phi) delta, and A
+  !> (joint_terms) changes by dA = [A_1 x delta, (A_2 x e_z) dq_3, 0] (d(R^T e) = R^T e x
+  !> delta for the first column; the second is R_yz^T e_y, which turns by A_2 dq_2 + e_z dq_3).
+  pure function joint_torque_tangent(phi, a, c, dc_da, k, d, rates, d_angles, d_rates) result(dtau)
+    real(dp), intent(in) :: phi(3), a(3, 3), c, dc_da  !< joint_terms at the state
+    real(dp), intent(in) :: k(3), d(3)        !< stiffness [Nm/rad], damping [Nms/rad]
+    real(dp), intent(in) :: rates(3)          !< the joint's rates [rad/s]
+    real(dp), intent(in) :: d_angles(3), d_rates(3)  !< their change
+    real(dp) :: dtau(3)
+    real(dp) :: dphi(3), da(3, 3), kphi(3), dkphi(3), pk(3), delta(3), w(3), dw(3)
+    real(dp) :: g(3), dg(3), torque(3), dtorque(3), dc, size_phi
+    delta = matmul(a, d_angles)
+    da(:, 1) = cross(a(:, 1), delta)
+    da(:, 2) = [a(2, 2), -a(1, 2), 0.0_dp]*d_angles(3)
+    da(:, 3) = 0.0_dp
+    pk = cross(phi, delta)
+    dphi = delta + 0.5_dp*pk + c*cross(phi, pk)
+    size_phi = norm2(phi)
+    dc = 0.0_dp
+    if (size_phi > 0.0_dp) dc = dc_da*dot_product(phi, dphi)/size_phi
+    kphi = k*phi
+    dkphi = k*dphi
+    pk = cross(phi, kphi)
+    g = kphi - 0.5_dp*pk + c*cross(phi, pk)
+    dg = dkphi - 0.5_dp*(cross(dphi, kphi) + cross(phi, dkphi)) + dc*cross(phi, pk) &
+         + c*(cross(dphi, pk) + cross(phi, cross(dphi, kphi) + cross(phi, dkphi)))
+    w = matmul(a, rates)
+    dw = matmul(da, rates) + matmul(a, d_rates)
+    torque = g + d*w
+    dtorque = dg + d*dw
+    dtau = -transposed_times(da, torque) - transposed_times(a, dtorque)
+  end function joint_torque_tangent
 
   pure real(dp) function potential(self, chain, st, q) result(e)
     class(rotation_springs_load), intent(in) :: self

@@ -8,7 +8,7 @@
 !> constant diagonal joint-space stiffness and damping (what a chain factorisation of the
 !> iteration matrix can use exactly; rotorcable_chain_linear_solver).  Before the tangents at
 !> a state the model calls linearise once, so that a load may keep what its tangent needs at
-!> that state (its trigonometry) for all the columns taken there.
+!> that state (its trigonometry, or the whole linear map) for all the columns taken there.
 module rotorcable_loads_type
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type
@@ -96,11 +96,11 @@ contains
   end subroutine no_joint_diagonal
 
   !> Keep what add_force_tangent needs at the state (t, q, v) of st: nothing, by default.
-  subroutine no_linearise(self, chain, st, q)
+  subroutine no_linearise(self, chain, st, q, v)
     class(load_term), intent(inout) :: self   !< the load
     type(chain_type), intent(in) :: chain     !< chain description
     type(chain_state), intent(in) :: st       !< frames, velocities at the state
-    real(dp), intent(in) :: q(:)              !< coordinates [rad]
+    real(dp), intent(in) :: q(:), v(:)        !< coordinates [rad] and rates [rad/s]
   end subroutine no_linearise
 
   subroutine no_set_parameter(self, name, values, found, error)

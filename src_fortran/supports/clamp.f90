@@ -47,7 +47,13 @@ module rotorcable_supports_clamp
     real(dp) :: omega(3) = 0.0_dp             !< w_B [rad/s]
     real(dp) :: alpha(3) = 0.0_dp             !< dw_B/dt [rad/s^2]
     real(dp) :: true_rotation(3, 3) = 0.0_dp  !< R_B at the last update
+    ! E and T at the state of the last linearise, which the tangents there read: a state's
+    ! columns (8 parameters x 2 corrector iterations, a Jacobian's 44) and each column's four
+    ! tangent procedures share them instead of forming E = R_n R_B^T nine times a column.
+    real(dp) :: e_lin(3, 3) = 0.0_dp          !< E
+    real(dp) :: t_lin(3, 3) = 0.0_dp          !< T = rate_map(E)
   contains
+    procedure :: linearise
     procedure :: rows
     procedure :: follow
     procedure :: residual
@@ -101,6 +107,15 @@ contains
     self%alpha = ms%omega_dot
     self%true_rotation = self%rotation
   end subroutine follow
+
+  !> E and T at the state of st, for the tangents there.
+  subroutine linearise(self, chain, st)
+    class(clamp_support), intent(inout) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    self%e_lin = orientation_error(self, st)
+    self%t_lin = rate_map(self%e_lin)
+  end subroutine linearise
 
   pure function orientation_error(self, st) result(e)
     class(clamp_support), intent(in) :: self
@@ -198,13 +213,13 @@ contains
   end subroutine wrench
 
   !> dE = [dtheta_n] E: the last body's frame turns by dtheta_n, the clamp's does not (it moves
-  !> with time only); T is linear in E, so dT = rate_map(dE).
+  !> with time only); T is linear in E, so dT = rate_map(dE).  E of the state from linearise.
   pure function orientation_error_tangent(self, st, dst) result(de)
     class(clamp_support), intent(in) :: self
     type(chain_state), intent(in) :: st
     type(chain_tangent), intent(in) :: dst
     real(dp) :: de(3, 3)
-    de = matmul(skew(dst%dtheta(:, size(st%rot, 3))), orientation_error(self, st))
+    de = matmul(skew(dst%dtheta(:, size(st%rot, 3))), self%e_lin)
   end function orientation_error_tangent
 
   pure subroutine residual_tangent(self, chain, st, dst, dg)
@@ -232,7 +247,7 @@ contains
     integer :: n
     n = chain%n_bodies
     call self%ball_support%velocity_tangent(chain, st, dst, fs, dout)
-    t = rate_map(orientation_error(self, st))
+    t = self%t_lin
     dt = rate_map(orientation_error_tangent(self, st, dst))
     w_n = st%omega(:, n) - fs%omega
     dout(4:6) = matmul(dt, w_n) + matmul(t, dst%domega(:, n)) - matmul(self%omega, dt)
@@ -248,9 +263,8 @@ contains
     real(dp), intent(in) :: mu(:), dmu(:)
     real(dp), intent(inout) :: dr(:)
     real(dp) :: t_mu(3), dt_mu(3)
-    t_mu = matmul(mu(4:6), rate_map(orientation_error(self, st)))
-    dt_mu = matmul(mu(4:6), rate_map(orientation_error_tangent(self, st, dst))) &
-            + matmul(dmu(4:6), rate_map(orientation_error(self, st)))
+    t_mu = matmul(mu(4:6), self%t_lin)
+    dt_mu = matmul(mu(4:6), rate_map(orientation_error_tangent(self, st, dst))) + matmul(dmu(4:6), self%t_lin)
     call add_tip_wrench_tangent(chain, st, dst, mu(1:3), dmu(1:3), t_mu, dt_mu, dr)
   end subroutine add_jacobian_transpose_tangent
 
@@ -264,7 +278,7 @@ contains
     real(dp), intent(out) :: dforce(3), dmoment(3)
     call self%ball_support%wrench_tangent(chain, st, dst, lambda, dlambda, dforce, dmoment)
     dmoment = matmul(lambda(4:6), rate_map(orientation_error_tangent(self, st, dst))) &
-              + matmul(dlambda(4:6), rate_map(orientation_error(self, st)))
+              + matmul(dlambda(4:6), self%t_lin)
   end subroutine wrench_tangent
 
   !> (tip - p_B, E - I), 3 + 9 rows, and its Jacobian (dE/dq_k = [a_k] E).  g_rot also vanishes

@@ -60,6 +60,9 @@ module rotorcable_supports_type
     procedure :: motion_twist => at_rest
     !> Release C memory held by a prescribed motion.
     procedure :: free => no_free
+    !> Keep what the tangents need at the state of st (the model calls it once per state,
+    !> before them, as it calls the loads' linearise): nothing, by default.
+    procedure :: linearise => no_linearise
   end type support_type
 
   abstract interface
@@ -198,6 +201,12 @@ contains
   end subroutine at_rest
 
   !> Release C memory (table splines); nothing by default.
+  subroutine no_linearise(self, chain, st)
+    class(support_type), intent(inout) :: self  !< the support
+    type(chain_type), intent(in) :: chain     !< chain description
+    type(chain_state), intent(in) :: st       !< frames and motion at the state
+  end subroutine no_linearise
+
   subroutine no_free(self)
     class(support_type), intent(inout) :: self  !< support
   end subroutine no_free
