@@ -156,13 +156,15 @@ contains
   end function joint_bias
 
   !> First-order change of joint_bias for changes of the axes (daxes) and the rates (drates):
-  !> the product rule on the same expressions.
+  !> the product rule on the same expressions.  Fixed-size arguments (the first ndof columns
+  !> used): the tangent runs per body and column, and array descriptors for sections cost more
+  !> than its arithmetic.
   pure function joint_bias_tangent(kind, axes, daxes, rates, drates) result(dbias)
     integer, intent(in) :: kind               !< parametrisation
-    real(dp), intent(in) :: axes(:, :)        !< (3, ndof) world axes
-    real(dp), intent(in) :: daxes(:, :)       !< (3, ndof) their change
-    real(dp), intent(in) :: rates(:)          !< joint coordinate rates [rad/s]
-    real(dp), intent(in) :: drates(:)         !< their change
+    real(dp), intent(in) :: axes(3, MAX_JOINT_DOF)   !< world axes (ndof used)
+    real(dp), intent(in) :: daxes(3, MAX_JOINT_DOF)  !< their change
+    real(dp), intent(in) :: rates(MAX_JOINT_DOF)     !< joint coordinate rates [rad/s]
+    real(dp), intent(in) :: drates(MAX_JOINT_DOF)    !< their change
     real(dp) :: dbias(3)
     real(dp) :: a1(3), a2(3), a3(3), d1(3), d2(3), d3(3), w12(3), dw12(3)
     select case (kind)

@@ -100,7 +100,7 @@ contains
     real(dp), intent(in) :: dqd(:), dqdd(:)    !< their directions
     type(chain_tangent), intent(inout) :: dst  !< tangent (motion filled)
     real(dp) :: w_parent(3), dw_parent(3), da_parent(3), w_rel(3), dw_rel(3), r(3), dr(3), dvr(3), ddvr(3), dda(3)
-    real(dp) :: a(3), da(3)
+    real(dp) :: a(3), da(3), dw(3), dal(3), ax(3, MAX_JOINT_DOF), dax(3, MAX_JOINT_DOF), rt(MAX_JOINT_DOF), drt(MAX_JOINT_DOF)
     integer :: j, k, i0, nd, first
     first = dst%first
     dst%domega(:, 1:first - 1) = 0.0_dp
@@ -119,31 +119,34 @@ contains
         da_parent = dst%dalpha(:, j - 1)
       end if
       nd = chain%n_joint_coords(j)
-      dst%domega(:, j) = dw_parent
-      dst%dalpha(:, j) = da_parent
+      dw = dw_parent
+      dal = da_parent
       if (nd > 0) then
         i0 = chain%first_coord(j) - 1
         w_rel = 0.0_dp
         dw_rel = 0.0_dp
+        ! Fixed-size copies of the joint's axes and rates (joint_bias_tangent's arguments).
+        ax = 0.0_dp; dax = 0.0_dp; rt = 0.0_dp; drt = 0.0_dp
         do k = 1, nd
           a = st%axes(:, k, j)
           da = dst%daxes(:, k, j)
+          ax(:, k) = a; dax(:, k) = da; rt(k) = qd(i0 + k); drt(k) = dqd(i0 + k)
           w_rel = w_rel + a*qd(i0 + k)
           dw_rel = dw_rel + da*qd(i0 + k) + a*dqd(i0 + k)
-          dst%dalpha(:, j) = dst%dalpha(:, j) + da*qdd(i0 + k) + a*dqdd(i0 + k)
+          dal = dal + da*qdd(i0 + k) + a*dqdd(i0 + k)
         end do
-        dst%domega(:, j) = dst%domega(:, j) + dw_rel
-        dst%dalpha(:, j) = dst%dalpha(:, j) + cross(dw_parent, w_rel) + cross(w_parent, dw_rel) &
-                           + joint_bias_tangent(chain%joint_kind(j), st%axes(:, 1:nd, j), dst%daxes(:, 1:nd, j), &
-                                                qd(i0 + 1:i0 + nd), dqd(i0 + 1:i0 + nd))
+        dw = dw + dw_rel
+        dal = dal + cross(dw_parent, w_rel) + cross(w_parent, dw_rel) &
+              + joint_bias_tangent(chain%joint_kind(j), ax, dax, rt, drt)
       end if
+      dst%domega(:, j) = dw
+      dst%dalpha(:, j) = dal
       ! Rigid-body transport along the body (eq. 3.14, 3.21) and its product rule.
       r = st%joint_point(:, j + 1) - st%joint_point(:, j)
       dr = cross(dst%dtheta(:, j), r)
       dvr = cross(st%omega(:, j), r)
-      ddvr = cross(dst%domega(:, j), r) + cross(st%omega(:, j), dr)
-      dda = cross(dst%dalpha(:, j), r) + cross(st%alpha(:, j), dr) + cross(dst%domega(:, j), dvr) &
-            + cross(st%omega(:, j), ddvr)
+      ddvr = cross(dw, r) + cross(st%omega(:, j), dr)
+      dda = cross(dal, r) + cross(st%alpha(:, j), dr) + cross(dw, dvr) + cross(st%omega(:, j), ddvr)
       dst%dvel_cm(:, j) = dst%dvel_joint(:, j) + 0.5_dp*ddvr
       dst%dacc_cm(:, j) = dst%dacc_joint(:, j) + 0.5_dp*dda
       dst%dvel_joint(:, j + 1) = dst%dvel_joint(:, j) + ddvr
