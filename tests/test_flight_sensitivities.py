@@ -202,11 +202,12 @@ def test_periodic_start_of_constraint_and_speed_parameters_by_monodromy_and_kryl
 def test_loads_only_partials_match_whole_residual_partials():
     # A parameter that moves the loads only (the plan decides it from what was built) has its
     # F_p from the loads' generalized forces on the run's kinematics: the rebuilt models' loads
-    # mapped by one pair of Newton-Euler passes (rotorcable_parameter_sensitivity, loads_partial)
-    # instead of the rebuilt models' whole residuals.  Both are the same central difference of
-    # the same terms, so they agree to round-off: eps |F| / h relative to F_p, with the
-    # centrifugal and inertia terms in |F| (h = eps^(1/3) |p|): measured 0 (the springs, joint
-    # torques: bit for bit), 7.7e-11 and 8.8e-11 (drag), 6.6e-10 (gravity); bound 1e-8.
+    # mapped by one backward J^T pass (rotorcable_parameter_sensitivity, loads_partial; model.f90
+    # applied_generalized_forces) instead of the rebuilt models' whole residuals.  Both are the
+    # same central difference of the same terms, so they agree to round-off: eps |F| / h
+    # relative to F_p, with the centrifugal and inertia terms in |F| (h = eps^(1/3) |p|):
+    # measured 0 (the springs, joint torques: bit for bit), 2.9e-11 and 5.1e-11 (drag), 8.2e-10
+    # (gravity); bound 1e-8.
     # The springs act through joint torques, drag and gravity through forces at the CMs: the two
     # paths of the mapping.  A state a third of a revolution in, with rates, so every term is
     # alive.
