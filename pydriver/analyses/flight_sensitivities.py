@@ -341,6 +341,14 @@ def output_derivatives(model, plans, outputs: _Outputs, ts: dict, t, q, v, sq, s
     used = outputs.samples_used()
     t, q, v, sq, sv = np.asarray(t, float)[used], q[:, used], v[:, used], sq[:, used, :], sv[:, used, :]
     n_samples = np.asarray(ts["t"]).size
+    signals = {}
+
+    def signal_of(spec):
+        # The run's own signals are the same for every parameter: formed once.
+        if spec not in signals:
+            signals[spec] = _signal(model, ts, spec)
+        return signals[spec]
+
     for k, pl in enumerate(plans):
         runs = []
         for s, w, m in pl.points:
@@ -356,7 +364,7 @@ def output_derivatives(model, plans, outputs: _Outputs, ts: dict, t, q, v, sq, s
                 memo[spec][used] = sum(w * _signal(mm, c, spec) for w, mm, c in runs) / h
             return memo[spec]
 
-        values.append(outputs.derivatives(lambda spec: _signal(model, ts, spec), d_signal))
+        values.append(outputs.derivatives(signal_of, d_signal))
     return values
 
 
