@@ -12,9 +12,13 @@ def run(model, run_dir=None, restart=None):
     (:mod:`pydriver.analyses.refinement`).  ``restart`` (a checkpoint) continues a dynamic run.
     With ``&design parameters`` a static or modal run adds its design sensitivities
     (:mod:`pydriver.analyses.sensitivities`); the parameters are checked before the analysis."""
+    import time
+
     from pydriver.analyses.sensitivities import attach_sensitivities, plan
     # A design run differentiates each of its evaluations itself (pydriver/analyses/optimiser.py).
+    t_plan = time.perf_counter()
     plans = plan(model) if model.analysis != "design" else []
+    t_plan = time.perf_counter() - t_plan
     if restart is not None:
         if model.deck["refinement.levels"] > 1:
             model.deck.fail("refinement", "levels", "--restart continues one run at one n: set levels = 1")
@@ -26,6 +30,9 @@ def run(model, run_dir=None, restart=None):
     else:
         result = run_single(model, run_dir)
         attach_sensitivities(model, result, plans)
+        if plans:
+            # The parameters' rebuilt models are part of what the sensitivities cost.
+            result.summary["sensitivities"]["model_builds_wall_time_s"] = t_plan
     if "fatigue" in model.deck.groups and "fatigue" not in result.summary:
         result.summary.setdefault("warnings", []).append(
             f"&fatigue is not evaluated: analysis '{model.analysis}' has no load history (flight or dynamic has)")
