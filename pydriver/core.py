@@ -326,7 +326,8 @@ class CoreModel:
         (rotorcable_parameter_sensitivity).
 
         ``points`` holds, per parameter, ``(h, pbar, [(offset, weight, CoreModel or None), ...])``
-        and optionally a fourth item, ``loads_only``, and a fifth, the flags of the load slots
+        and optionally a fourth item, ``loads_only`` (True or 1; 2: bodies and loads, the rebuilt
+        models' Newton-Euler passes on this model's motion), and a fifth, the flags of the load slots
         the parameter changes (None: all): the explicit partial dF/dp = sum weight
         F(model at p + offset h) / h (None: this model), and the parameter's scale pbar > 0 (the
         sensitivity's absolute tolerance is atol / pbar).  ``loads_only`` (the rebuilt models
@@ -345,7 +346,7 @@ class CoreModel:
         handles = np.zeros((n_pts, n_par), dtype=np.int32, order="F")
         offsets = np.zeros((n_pts, n_par), order="F")
         weights = np.zeros((n_pts, n_par), order="F")
-        loads_only = np.array([int(len(p) > 3 and bool(p[3])) for p in points], dtype=np.int32)
+        loads_only = np.array([int(p[3]) if len(p) > 3 else 0 for p in points], dtype=np.int32)
         changed = load_mask([p[4] if len(p) > 4 else None for p in points])
         for k, (_, _, pts, *_) in enumerate(points):
             for i, (s, w, m) in enumerate(pts):
@@ -405,7 +406,8 @@ class CoreModel:
                           changed_loads=None):
         """F_p = sum_i w_i F(models[i]) / h at (t, y, y') (None: this model), as the sensitivity
         integration takes it; ``loads_only``: from the loads' generalized forces on this model's
-        kinematics (rotorcable_parameter_sensitivity, loads_partial), of the load slots where
+        kinematics (rotorcable_parameter_sensitivity, loads_partial), or, 2, from the rebuilt
+        models' bodies and loads on its motion (bodies_partial), of the load slots where
         ``changed_loads`` (default: all)."""
         handles = np.array([0 if m is None else m.handle for m in models], dtype=np.int32)
         changed = load_mask([changed_loads])

@@ -647,10 +647,12 @@ contains
     real(c_double), intent(in) :: weights(npts, np)  !< difference weights (0: unused point)
     real(c_double), intent(in) :: h(np)           !< steps [unit of p]
     real(c_double), intent(in) :: pbar(np)        !< scales of the parameters (> 0)
-    integer(c_int), intent(in) :: loads_only(np)  !< 1: the rebuilt models differ in their loads only
+    !> 1: the rebuilt models differ in their loads only; 2: in their bodies' masses and inertias
+    !> and their loads (the run's kinematics); 0: otherwise
+    integer(c_int), intent(in) :: loads_only(np)
     integer(c_int), intent(in) :: nl              !< load slots described by changed_loads
-    !> with loads_only: 1 where the rebuilt models' load in that slot differs from the run's (the
-    !> others cancel in the difference and are not evaluated)
+    !> with loads_only 1 or 2: 1 where the rebuilt models' load in that slot differs from the
+    !> run's (the others cancel in the difference and are not evaluated)
     integer(c_int), intent(in) :: changed_loads(nl, np)
     !> the sensitivities' tolerances are the state's times this (>= 1: products whose weight in
     !> the result is small, the inexact Krylov blocks of pydriver's periodic start)
@@ -683,7 +685,8 @@ contains
     if (error%code == 0) then
       allocate (points%model(npts, np))
       points%offset = offsets; points%weight = weights; points%h = h
-      points%loads_only = loads_only /= 0
+      points%loads_only = loads_only == 1
+      points%bodies_and_loads = loads_only == 2
       points%changed_load = changed_loads /= 0
       do k = 1, np
         do i = 1, npts

@@ -38,7 +38,8 @@ module rotorcable_model
             constraint_residual, constraint_jacobian, constraint_bias, constraint_velocity, &
             solve_accelerations, positions_at, total_energy, &
             switch_times, joint_diagonal, all_conservative, model_stale, state_motion, state_energies, &
-            workspace_holds, HOLDS_FRAMES, HOLDS_MOTION, HOLDS_EOM, add_load_forces, applied_generalized_forces
+            workspace_holds, HOLDS_FRAMES, HOLDS_MOTION, HOLDS_EOM, add_load_forces, applied_generalized_forces, &
+            other_bodies_residual
 
   !> What the workspace holds, in increasing order: nothing; the frames (positions) of (t, q);
   !> also the velocities of v (accelerations of some vdot); also the forces, accelerations and
@@ -395,6 +396,45 @@ contains
       end do
     end do
   end subroutine applied_generalized_forces
+
+  !> The equation-of-motion residual of `other`, a model with this one's kinematics (geometry,
+  !> joints, supports, rotor) but its own bodies' masses and inertias and its own loads, at this
+  !> model's motion (t, q, v, vdot), without support B's wrench and with the load slots `only`
+  !> (the terms a difference over such models shares: they cancel).  Other's Newton-Euler pass
+  !> runs on this model's frames and motion, which are what it would compute itself; the joint
+  !> wrenches it writes are put back, so the workspace holds what it held (the tangents that
+  !> follow a parameter partial at the same state reuse its pass and linearisation).
+  subroutine other_bodies_residual(model, other, t, q, v, vdot, only, res)
+    type(model_type), intent(inout) :: model  !< model whose kinematics are used
+    type(model_type), intent(in) :: other     !< model whose bodies and loads are used
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: q(:), v(:), vdot(:)  !< coordinates, rates, accelerations
+    logical, intent(in) :: only(:)            !< other's load slots to add
+    real(dp), intent(out) :: res(:)           !< (nq) residual without the support's wrench [Nm]
+    real(dp) :: f(3, model%chain%n_bodies), m(3, model%chain%n_bodies), tq(model%nq), zero(3), f_a(3), m_a(3)
+    real(dp) :: kept_force(3, model%chain%n_bodies), kept_moment(3, model%chain%n_bodies)
+    integer :: i
+    if (.not. (workspace_holds(model, HOLDS_MOTION, t, q, v) .and. same(vdot, model%ws%vdot))) then
+      call positions_at(model, t, q)
+      call chain_motion(model%chain, model%seed, v, vdot, model%st)
+      call record(model, HOLDS_MOTION, t, q, v, vdot)
+    end if
+    f = 0.0_dp; m = 0.0_dp; tq = 0.0_dp; zero = 0.0_dp
+    do i = 1, size(other%loads)
+      if (.not. only(i)) cycle
+      call other%loads(i)%term%add_forces(other%chain, model%st, model%fs, t, q, v, f, m, tq)   ! other's bodies
+    end do
+    kept_force = model%st%joint_force
+    kept_moment = model%st%joint_moment
+    if (model%fs%rotating .and. .not. model%fs%body_couples) then
+      call inverse_dynamics(other%chain, model%st, f, m, zero, zero, res, f_a, m_a, model%fs%omega, model%fs%omega_dot)
+    else
+      call inverse_dynamics(other%chain, model%st, f, m, zero, zero, res, f_a, m_a)
+    end if
+    model%st%joint_force = kept_force
+    model%st%joint_moment = kept_moment
+    res = res - tq
+  end subroutine other_bodies_residual
 
   !> The Newton-Euler pass of the workspace's motion under the applied forces and support B's
   !> wrench, in the model frame's form (a turning frame's rate left out of the couples unless

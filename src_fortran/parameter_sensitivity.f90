@@ -26,7 +26,7 @@ module rotorcable_parameter_sensitivity
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error, sundials_flag_error
   use rotorcable_model, only: model_type, solve_accelerations, constraint_jacobian, add_load_forces, &
-                              applied_generalized_forces
+                              applied_generalized_forces, other_bodies_residual
   use rotorcable_linalg, only: solve_least_norm
   use rotorcable_ggl_residual, only: ida_user_data, ggl_residual_dense, ggl_residual_tangent
   use rotorcable_ida_binding, only: N_VNew_Serial, N_VDestroy, N_VGetArrayPointer, IDASensInit, &
@@ -53,8 +53,13 @@ module rotorcable_parameter_sensitivity
     !> (np) the rebuilt models differ from the run's in their loads only (pydriver decides it
     !> from what was built): F_p is then that of the loads' generalized forces (loads_partial)
     logical, allocatable :: loads_only(:)
-    !> (load slots, np) with loads_only: the slots whose load the rebuilt models change; the
-    !> others give the same forces at every point and cancel in the difference (weights sum to 0)
+    !> (np) the rebuilt models have the run's kinematics (geometry, joints, supports, rotor) and
+    !> differ in their bodies' masses and inertias and their loads (pydriver decides it): F_p is
+    !> then that of their Newton-Euler pass on the run's motion (bodies_partial)
+    logical, allocatable :: bodies_and_loads(:)
+    !> (load slots, np) with loads_only or bodies_and_loads: the slots whose load the rebuilt
+    !> models change; the others give the same forces at every point and cancel in the
+    !> difference (weights sum to 0)
     logical, allocatable :: changed_load(:, :)
     type(model_type), pointer :: base => null()      !< the run's own model
     !> F_p of the last (t, y, y'): IDAS's staggered corrector calls the sensitivity residual at
@@ -260,6 +265,12 @@ contains
         return
       end if
     end if
+    if (allocated(points%bodies_and_loads)) then
+      if (points%bodies_and_loads(k)) then
+        call bodies_partial(points, k, t, y, yd, fp)
+        return
+      end if
+    end if
     do i = 1, size(points%weight, 1)
       if (points%weight(i, k) == 0.0_dp) cycle
       if (associated(points%model(i, k)%m)) then
@@ -307,6 +318,47 @@ contains
     fp = 0.0_dp
     fp(nq + 1:2*nq) = -gen/points%h(k)
   end subroutine loads_partial
+
+  !> F_p of a parameter whose rebuilt models have the run's kinematics and other bodies (masses,
+  !> inertias) and loads.  Then only the equations of motion depend on it, and their residual
+  !> at the run's motion (t, q, v, v') is each rebuilt model's Newton-Euler pass with its bodies
+  !> and loads (other_bodies_residual):
+  !>
+  !>     F_p (v rows) = sum_i w_i (pass_i - tau_i) / h,
+  !>
+  !> the terms that every point shares (the support's wrench, the load slots the parameter
+  !> does not change and whose forces do not depend on the bodies, load_term%depends_on_bodies)
+  !> cancelling (the weights sum to 0).  No kinematics, constraint rows or
+  !> unchanged loads per point, which the whole residuals of the rebuilt models repeat; the
+  !> same difference formula as parameter_partial's, so the same truncation and round-off.
+  subroutine bodies_partial(points, k, t, y, yd, fp)
+    type(difference_points), intent(inout) :: points  !< rebuilt models and weights
+    integer, intent(in) :: k                  !< parameter
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: y(:), yd(:)       !< unknowns and their derivatives
+    real(dp), intent(out) :: fp(:)            !< dF/dp_k
+    type(model_type), pointer :: base, m
+    real(dp), allocatable :: res(:), sum_res(:)
+    logical, allocatable :: only(:)
+    integer :: i, j, nq
+    base => points%base
+    nq = base%nq
+    allocate (res(nq), sum_res(nq))
+    sum_res = 0.0_dp
+    do i = 1, size(points%weight, 1)
+      if (points%weight(i, k) == 0.0_dp) cycle
+      m => points%model(i, k)%m
+      if (.not. associated(m)) m => base
+      only = changed_slots(points, k, size(m%loads))
+      do j = 1, size(m%loads)
+        only(j) = only(j) .or. m%loads(j)%term%depends_on_bodies
+      end do
+      call other_bodies_residual(base, m, t, y(1:nq), y(nq + 1:2*nq), yd(nq + 1:2*nq), only, res)
+      sum_res = sum_res + points%weight(i, k)*res
+    end do
+    fp = 0.0_dp
+    fp(nq + 1:2*nq) = sum_res/points%h(k)
+  end subroutine bodies_partial
 
   !> Which of a rebuilt model's nl load slots parameter k changes (points%changed_load; a slot
   !> it does not describe, or no description at all: changed).

@@ -148,8 +148,8 @@ contains
 
   !> The explicit partial F_p = sum_i w_i F(model_i) / h of one design parameter at (t, y, y'),
   !> as the sensitivity integration takes it: from the rebuilt models' whole residuals, or
-  !> (loads_only /= 0) from their loads' generalized forces on this model's kinematics, of the
-  !> load slots where changed /= 0.
+  !> (loads_only = 1) from their loads' generalized forces on this model's kinematics, or (2)
+  !> from their bodies' and loads' Newton-Euler pass on it, of the load slots where changed /= 0.
   subroutine rc_probe_parameter_partial(handle, npts, handles, weights, h, loads_only, nl, changed, t, n, y, yd, fp, &
                                         stat, msg)
     integer(c_int), intent(in) :: handle          !< the run's model
@@ -157,7 +157,7 @@ contains
     integer(c_int), intent(in) :: handles(npts)   !< their models (0: the run's own)
     real(c_double), intent(in) :: weights(npts)   !< difference weights
     real(c_double), intent(in) :: h               !< step [unit of p]
-    integer(c_int), intent(in) :: loads_only      !< 1: the partial of the loads' generalized forces
+    integer(c_int), intent(in) :: loads_only      !< 1: loads' generalized forces; 2: bodies and loads
     integer(c_int), intent(in) :: nl              !< load slots
     integer(c_int), intent(in) :: changed(nl)     !< 1: the slot's load is differenced
     real(c_double), intent(in) :: t               !< time [s]
@@ -180,7 +180,8 @@ contains
       points%offset = reshape([(0.0_dp, i = 1, npts)], [npts, 1])
       points%weight = reshape(weights, [npts, 1])
       points%h = [h]
-      points%loads_only = [loads_only /= 0]
+      points%loads_only = [loads_only == 1]
+      points%bodies_and_loads = [loads_only == 2]
       points%changed_load = reshape(changed /= 0, [nl, 1])
       points%base => model
       do i = 1, npts

@@ -369,11 +369,11 @@ def output_derivatives(model, plans, outputs: _Outputs, ts: dict, t, q, v, sq, s
 
 
 def _points(pl) -> tuple:
-    """(h, pbar, [(offset, weight, CoreModel or None)], loads_only, changed load slots) of a plan
-    for the core."""
+    """(h, pbar, [(offset, weight, CoreModel or None)], partial kind, changed load slots) of a plan
+    for the core (kind 1: loads only, 2: bodies and loads, 0: whole residuals)."""
     pbar = abs(pl.parameter.value) if pl.parameter.value != 0.0 else 1.0
-    return (pl.h, pbar, [(s, w, None if m is None else m.core) for s, w, m in pl.points], pl.loads_only,
-            pl.changed_loads)
+    kind = 1 if pl.loads_only else 2 if getattr(pl, "bodies_and_loads", False) else 0
+    return (pl.h, pbar, [(s, w, None if m is None else m.core) for s, w, m in pl.points], kind, pl.changed_loads)
 
 
 def _periodic_start_krylov(model, settings, period, q0, v0, d_x, t_out):

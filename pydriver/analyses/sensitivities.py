@@ -63,6 +63,8 @@ class Plan:
     def __init__(self, parameter: Parameter, h: float, scheme: str, points: list, loads_only: bool = False):
         self.parameter, self.h, self.scheme, self.points = parameter, h, scheme, points
         self.loads_only = loads_only
+        #: they have the run's kinematics and differ in their bodies and loads (:func:`bodies_and_loads`)
+        self.bodies_and_loads = False
         #: the load slots (in the order built) whose load the rebuilt models change (None: all)
         self.changed_loads = None
 
@@ -95,6 +97,20 @@ def loads_only(model, varied) -> bool:
     loads_partial) instead of whole residuals."""
     return (all(_same(model.description[k], varied.description[k]) for k in NOT_LOADS)
             and all(_same(model.deck.values.get(g), varied.deck.values.get(g)) for g in NOT_LOADS_GROUPS))
+
+
+def bodies_and_loads(model, varied) -> bool:
+    """Whether ``varied`` (a rebuilt model) has the kinematics of ``model`` (body lengths, locked
+    joints, joint kind and first body, support A, support B, the rotor) and differs in its
+    bodies' masses and radii and its loads only, so that the core may take F_p from the rebuilt
+    models' Newton-Euler passes on the run's motion instead of whole residuals
+    (rotorcable_parameter_sensitivity, bodies_partial)."""
+    a, b = model.description["bodies"], varied.description["bodies"]
+    chain_a, chain_b = model.deck.values.get("chain", {}), varied.deck.values.get("chain", {})
+    return (_same(a.lengths, b.lengths) and _same(a.locked, b.locked)
+            and all(_same(model.description[k], varied.description[k]) for k in NOT_LOADS if k != "bodies")
+            and all(_same(model.deck.values.get(g), varied.deck.values.get(g)) for g in ("shape", "clamp_a"))
+            and all(_same(chain_a.get(k), chain_b.get(k)) for k in ("joint", "first_body")))
 
 
 def changed_loads(model, varied: list) -> list[bool] | None:
@@ -154,7 +170,9 @@ def plan(model) -> list[Plan]:
             points.append((s, w, models.get(s)))
         varied = [m for _, _, m in points if m is not None]
         out.append(Plan(p, h, scheme, points, all(loads_only(model, m) for m in varied)))
-        if out[-1].loads_only:
+        if not out[-1].loads_only:
+            out[-1].bodies_and_loads = all(bodies_and_loads(model, m) for m in varied)
+        if out[-1].loads_only or out[-1].bodies_and_loads:
             out[-1].changed_loads = changed_loads(model, varied)
     return out
 

@@ -47,6 +47,7 @@ contains
     if (error%code /= 0) return
     load%label = 'joint springs'
     load%conservative = .true.
+    load%depends_on_bodies = .false.   ! the joints' angles and rates and its own constants only
     allocate (slot%term, source=load)
   end subroutine new_joint_springs
 

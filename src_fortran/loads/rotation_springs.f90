@@ -91,6 +91,7 @@ contains
       load%damping(:, j) = damping(3*k - 2:3*k)
     end do
     load%conservative = .true.
+    load%depends_on_bodies = .false.   ! the joints' angles and rates and its own constants only
     allocate (slot%term, source=load)
   end subroutine new_rotation_springs
 

@@ -26,6 +26,12 @@ module rotorcable_loads_type
     !> The load is conservative with its potential (the energy balance counts it as stored, not
     !> as work done); its constructor says so.
     logical :: conservative = .false.
+    !> The load's forces depend on the chain's bodies (their masses, radii) beyond its own
+    !> parameters: a design parameter that changes the bodies changes them (gravity, drag).  A
+    !> load that reads only the joints' angles and rates and its own constants says .false. in
+    !> its constructor, and a difference over models with other bodies skips it when its own
+    !> parameters are the same (rotorcable_parameter_sensitivity, bodies_partial).
+    logical :: depends_on_bodies = .true.
   contains
     !> Add the load's forces at the state (st: frames and absolute velocities) and time t.
     procedure(add_forces_interface), deferred :: add_forces
