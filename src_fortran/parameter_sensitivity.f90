@@ -248,11 +248,7 @@ contains
   !> A one-sided difference evaluates the run's own model too, so callers evaluate its residual
   !> again before a tangent (which reuses the kinematics of the last residual).
   subroutine parameter_partial(points, k, t, y, yd, fp)
-    type(difference_points), intent(inout) :: points  !< rebuilt models and weights
-    integer, intent(in) :: k                  !< parameter
-    real(dp), intent(in) :: t                 !< time [s]
-    real(dp), intent(in) :: y(:), yd(:)       !< unknowns and their derivatives
-    real(dp), intent(out) :: fp(:)            !< dF/dp_k
+    include 'partial_arguments.inc'
     real(dp) :: r(size(fp))
     integer :: i
     fp = 0.0_dp
@@ -295,11 +291,7 @@ contains
   !> rows per point, which the whole residuals of the rebuilt models repeat.  The
   !> same difference formula as parameter_partial's, so the same truncation and round-off.
   subroutine loads_partial(points, k, t, y, yd, fp)
-    type(difference_points), intent(inout) :: points  !< rebuilt models and weights
-    integer, intent(in) :: k                  !< parameter
-    real(dp), intent(in) :: t                 !< time [s]
-    real(dp), intent(in) :: y(:), yd(:)       !< unknowns and their derivatives
-    real(dp), intent(out) :: fp(:)            !< dF/dp_k
+    include 'partial_arguments.inc'
     type(model_type), pointer :: base, m
     real(dp), allocatable :: force(:, :), moment(:, :), tau(:), gen(:)
     integer :: i, nq
@@ -309,8 +301,7 @@ contains
     force = 0.0_dp; moment = 0.0_dp; tau = 0.0_dp
     do i = 1, size(points%weight, 1)
       if (points%weight(i, k) == 0.0_dp) cycle
-      m => points%model(i, k)%m
-      if (.not. associated(m)) m => base
+      m => point_model(points, i, k)
       call add_load_forces(base, m%loads, points%weight(i, k), t, y(1:nq), y(nq + 1:2*nq), force, moment, tau, &
                            changed_slots(points, k, size(m%loads)))
     end do
@@ -332,11 +323,7 @@ contains
   !> unchanged loads per point, which the whole residuals of the rebuilt models repeat; the
   !> same difference formula as parameter_partial's, so the same truncation and round-off.
   subroutine bodies_partial(points, k, t, y, yd, fp)
-    type(difference_points), intent(inout) :: points  !< rebuilt models and weights
-    integer, intent(in) :: k                  !< parameter
-    real(dp), intent(in) :: t                 !< time [s]
-    real(dp), intent(in) :: y(:), yd(:)       !< unknowns and their derivatives
-    real(dp), intent(out) :: fp(:)            !< dF/dp_k
+    include 'partial_arguments.inc'
     type(model_type), pointer :: base, m
     real(dp), allocatable :: res(:), sum_res(:)
     logical, allocatable :: only(:)
@@ -347,8 +334,7 @@ contains
     sum_res = 0.0_dp
     do i = 1, size(points%weight, 1)
       if (points%weight(i, k) == 0.0_dp) cycle
-      m => points%model(i, k)%m
-      if (.not. associated(m)) m => base
+      m => point_model(points, i, k)
       only = changed_slots(points, k, size(m%loads))
       do j = 1, size(m%loads)
         only(j) = only(j) .or. m%loads(j)%term%depends_on_bodies
@@ -359,6 +345,15 @@ contains
     fp = 0.0_dp
     fp(nq + 1:2*nq) = sum_res/points%h(k)
   end subroutine bodies_partial
+
+  !> The model of difference point i of parameter k: its rebuilt model, or the run's own.
+  function point_model(points, i, k) result(m)
+    type(difference_points), intent(in) :: points  !< rebuilt models and weights
+    integer, intent(in) :: i, k               !< point, parameter
+    type(model_type), pointer :: m
+    m => points%model(i, k)%m
+    if (.not. associated(m)) m => points%base
+  end function point_model
 
   !> Which of a rebuilt model's nl load slots parameter k changes (points%changed_load; a slot
   !> it does not describe, or no description at all: changed).
@@ -428,8 +423,7 @@ contains
       d_vd = 0.0_dp; d_la = 0.0_dp
       do i = 1, size(points%weight, 1)
         if (points%weight(i, k) == 0.0_dp) cycle
-        m => points%model(i, k)%m
-        if (.not. associated(m)) m => points%base
+        m => point_model(points, i, k)
         e = points%offset(i, k)*points%h(k)
         call solve_accelerations(m, t, q + e*sq, v + e*sv, vd, la, info)
         if (info /= 0) then
