@@ -224,23 +224,28 @@ contains
     if (present(lambda)) model%ws%lambda(:) = lambda(1:model%nc)
   end subroutine record
 
-  !> a and b hold the same bits (NaN never matches; -0 and +0 differ).  The loop ors the bits'
-  !> differences without an early exit, so the compiler vectorises it: the record is read ~10^5
-  !> times a run (every residual and tangent), and equal states, the common case, read it all.
+  !> a and b hold the same bits (NaN never matches; -0 and +0 differ).  Two loops without an
+  !> early exit or a short-circuit, so that the compiler vectorises both: the bits' differences
+  !> ored, then (equal bits only) the NaNs counted.  The record is read ~10^5 times a run
+  !> (every residual and tangent), and equal states, the common case, read it all (one loop
+  !> with the NaN test in it compiled to a branch per element: 430 instructions for 33 values).
   pure logical function same(a, b)
     real(dp), intent(in) :: a(:), b(:)
     integer(int64) :: differ
-    logical :: nan
-    integer :: i
+    integer :: i, nans
     same = size(a) == size(b)
     if (.not. same) return
     differ = 0_int64
-    nan = .false.
     do i = 1, size(a)
       differ = ior(differ, ieor(transfer(a(i), 0_int64), transfer(b(i), 0_int64)))
-      nan = nan .or. a(i) /= a(i)
     end do
-    same = differ == 0_int64 .and. .not. nan
+    same = differ == 0_int64
+    if (.not. same) return
+    nans = 0
+    do i = 1, size(a)
+      nans = nans + merge(1, 0, a(i) /= a(i))
+    end do
+    same = nans == 0
   end function same
 
   pure logical function same_bits(a, b)
