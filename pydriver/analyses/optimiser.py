@@ -31,7 +31,7 @@ import warnings
 import numpy as np
 
 from pydriver.analyses.flight import flight_analysis
-from pydriver.analyses.flight_sensitivities import flight_sensitivities
+from pydriver.analyses.flight_sensitivities import flight_sensitivities, worst_points_of
 from pydriver.analyses.hover_modes import hover_model
 from pydriver.analyses.resonance import harmonic_margin, operating_speeds
 from pydriver.analyses.sensitivities import modal_sensitivities, plan, static_outputs, static_sensitivities
@@ -138,7 +138,10 @@ class Evaluator:
         plans = plan(model)                      # before the run: bad parameters refused first
         run = flight_analysis(model)
         orbit = run.extra["orbit"]
-        sens = flight_sensitivities(model, plans, orbit["period_s"], orbit, run.timeseries)
+        # The run's own fatigue analysis found each joint's worst point around the jacket: the
+        # outputs read it instead of repeating the rainflow counts at every point.
+        sens = flight_sensitivities(model, plans, orbit["period_s"], orbit, run.timeseries,
+                                    worst_points_of(model, run.extra.get("tables", {}).get("fatigue.csv")))
         names = [pl.parameter.name for pl in plans]
         values = dict(sens["values"])
         gradients = {out: np.array([row[n] for n in names])
