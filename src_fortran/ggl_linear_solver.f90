@@ -36,13 +36,14 @@ module rotorcable_ggl_linear_solver
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_ptr, c_null_ptr, c_funloc, c_loc, &
                                          c_f_pointer, c_associated
   use rotorcable_kinds, only: dp
-  use rotorcable_linalg, only: dgetrf, dgetrs, small_gemv, lu_solve
+  use rotorcable_linalg, only: dgetrf, dgetrs, dgemm, small_gemv, lu_solve
   use rotorcable_ida_binding, only: sun_linear_solver, sun_linear_solver_ops, SUNLinSolNewEmpty, &
                                     SUNLinSolFreeEmpty, SUNDenseMatrix_Data, N_VGetArrayPointer, &
                                     SUNLINEARSOLVER_DIRECT, SUNLS_SUCCESS, SUNLS_LUFACT_FAIL
   implicit none
   private
-  public :: ggl_block_solver, block_solver_create, block_solver_destroy, block_factorise, block_solve
+  public :: ggl_block_solver, block_solver_create, block_solver_destroy, block_factorise, block_solve, &
+            block_solve_columns
 
   integer(c_int), parameter :: SUNLINEARSOLVER_CUSTOM = 17  !< SUNLinearSolver_ID
   !> cj [1/s] above which the whole matrix is factorised (module header: steps below ~1 us).
@@ -171,6 +172,38 @@ contains
     x(1:nq) = (x(1:nq) + w)/cj
     x(nq + 1:2*nq) = w
   end subroutine block_solve
+
+  !> Solve J X = B for k right-hand sides at once (block_solve's steps as matrix products, LAPACK
+  !> dgemm and dgetrs): the sensitivity columns of one corrector iteration share every read of
+  !> the factors (rotorcable_sensitivity_newton).  B is overwritten by X.
+  subroutine block_solve_columns(self, b)
+    type(ggl_block_solver), intent(in) :: self  !< factorised solver
+    real(dp), intent(inout) :: b(:, :)        !< (n, k) right-hand sides, then solutions
+    real(dp) :: t(self%nq + 2*self%nc, size(b, 2)), w(self%nq, size(b, 2)), z(2*self%nc, size(b, 2)), cj
+    integer :: nq, nc, m, k, n, info, j
+    nq = self%nq; nc = self%nc; cj = self%cj; m = nq + 2*nc; k = size(b, 2); n = size(b, 1)
+    if (k == 0) return
+    if (self%whole) then
+      call dgetrs('N', n, k, self%lu, n, self%lu_pivots, b, n, info)
+      return
+    end if
+    call dgemm('N', 'N', m, k, nq, 1.0_dp, self%b1_rows, m, b, n, 0.0_dp, t, m)   ! [Kq/cj; G; Cq/cj] b1
+    w = b(nq + 1:2*nq, :) - t(1:nq, :)                                              ! r2
+    call dgetrs('N', nq, k, self%k, nq, self%k_pivots, w, nq, info)                 ! K^-1 r2
+    if (nc > 0) then
+      z(1:nc, :) = cj*b(2*nq + 1:2*nq + nc, :) - t(nq + 1:nq + nc, :)               ! rc
+      z(nc + 1:2*nc, :) = b(2*nq + nc + 1:2*nq + 2*nc, :) - t(nq + nc + 1:m, :)
+      call dgemm('N', 'N', 2*nc, k, nq, -1.0_dp, self%c_rows, 2*nc, w, nq, 1.0_dp, z, 2*nc)        ! - C K^-1 r2
+      do j = 1, k                             ! 2 nc x 2 nc: dgetrs's overhead exceeds the arithmetic
+        call lu_solve(2*nc, self%s, self%s_pivots, z(:, j))
+      end do
+      call dgemm('N', 'N', nq, k, 2*nc, 1.0_dp, self%kinv_b, nq, z, 2*nc, 1.0_dp, w, nq)           ! + K^-1 B z
+      call dgemm('N', 'N', nq, k, nc, -1.0_dp, self%g_t, nq, z(nc + 1:, :), nc, 1.0_dp, b, n)      ! b1 - G^T m
+      b(2*nq + 1:2*nq + 2*nc, :) = z
+    end if
+    b(1:nq, :) = (b(1:nq, :) + w)/cj
+    b(nq + 1:2*nq, :) = w
+  end subroutine block_solve_columns
 
   !> SUNLinSolGetType: a direct solver (IDA fills and hands over the matrix).
   integer(c_int) function block_gettype(ls) bind(C)

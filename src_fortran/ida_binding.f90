@@ -19,11 +19,17 @@ module rotorcable_ida_binding
             IDASetJacFn, SUNDenseMatrix_Data, IDAGetNumLinSolvSetups, IDAGetCurrentCj, IDAGetCurrentY, &
             IDAGetCurrentTime, IDASensInit, IDASensSVtolerances, IDASetSensErrCon, &
             IDAGetSens, IDASensFree, IDASensReInit, IDAGetSensNumResEvals, IDAGetSensNumNonlinSolvIters, &
-            IDA_STAGGERED, IDASetInitStep
+            IDA_STAGGERED, IDASetInitStep, IDASetNonlinearSolverSensStg, SUNNonlinSolNewEmpty, SUNNonlinSolFreeEmpty, &
+            N_VClone, N_VScale, N_VLinearSum, N_VConst, &
+            SUN_NLS_SUCCESS, SUN_NLS_CONTINUE, SUN_NLS_CONV_RECVR, SUN_NLS_MEM_NULL
 
   public :: sun_linear_solver, sun_linear_solver_ops, SUNLINEARSOLVER_DIRECT, SUNLINEARSOLVER_MATRIX_EMBEDDED, &
             SUNLS_SUCCESS, SUNLS_LUFACT_FAIL
   public :: copy_solver_message
+
+  !> Return values of a SUNNonlinearSolver and its convergence test (sundials_nonlinearsolver.h, 6.4).
+  integer(c_int), parameter :: SUN_NLS_SUCCESS = 0, SUN_NLS_CONTINUE = 901, SUN_NLS_CONV_RECVR = 902, &
+                               SUN_NLS_MEM_NULL = -901
 
   !> struct _generic_SUNLinearSolver (sundials_linearsolver.h, 6.4): a user-supplied linear
   !> solver is an empty solver whose content and operation pointers are filled in.
@@ -275,6 +281,40 @@ module rotorcable_ida_binding
       type(c_ptr), value :: mem
       integer(c_long) :: n
     end function IDAGetSensNumNonlinSolvIters
+    !> Replace the staggered sensitivity corrector's nonlinear solver (rotorcable_sensitivity_newton).
+    integer(c_int) function IDASetNonlinearSolverSensStg(mem, nls) bind(C, name='IDASetNonlinearSolverSensStg')
+      import :: c_int, c_ptr
+      type(c_ptr), value :: mem, nls
+    end function IDASetNonlinearSolverSensStg
+    !> An empty SUNNonlinearSolver (content and operations filled in by the caller), and its free.
+    type(c_ptr) function SUNNonlinSolNewEmpty(ctx) bind(C, name='SUNNonlinSolNewEmpty')
+      import :: c_ptr
+      type(c_ptr), value :: ctx
+    end function SUNNonlinSolNewEmpty
+    subroutine SUNNonlinSolFreeEmpty(nls) bind(C, name='SUNNonlinSolFreeEmpty')
+      import :: c_ptr
+      type(c_ptr), value :: nls
+    end subroutine SUNNonlinSolFreeEmpty
+    !> Generic N_Vector operations (any vector kind: the sensitivity wrappers too).
+    type(c_ptr) function N_VClone(v) bind(C, name='N_VClone')
+      import :: c_ptr
+      type(c_ptr), value :: v
+    end function N_VClone
+    subroutine N_VScale(c, x, z) bind(C, name='N_VScale')
+      import :: c_ptr, c_double
+      real(c_double), value :: c
+      type(c_ptr), value :: x, z
+    end subroutine N_VScale
+    subroutine N_VLinearSum(a, x, b, y, z) bind(C, name='N_VLinearSum')
+      import :: c_ptr, c_double
+      real(c_double), value :: a, b
+      type(c_ptr), value :: x, y, z
+    end subroutine N_VLinearSum
+    subroutine N_VConst(c, z) bind(C, name='N_VConst')
+      import :: c_ptr, c_double
+      real(c_double), value :: c
+      type(c_ptr), value :: z
+    end subroutine N_VConst
     integer(c_int) function IDASetInitStep(mem, hin) bind(C, name='IDASetInitStep')
       import :: c_int, c_ptr, c_double
       type(c_ptr), value :: mem

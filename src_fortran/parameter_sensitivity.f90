@@ -34,7 +34,9 @@ module rotorcable_parameter_sensitivity
                                     IDAGetSensNumResEvals, IDA_STAGGERED, IDASetInitStep, IDASensReInit, IDAReInit
   use rotorcable_nvector_kernels, only: use_fast_kernels
   use rotorcable_dae_integrator, only: integrator_settings, solver_stats, dae_session, session_start, &
-                                       session_advance, session_end, session_step_onto_switch, session_restart
+                                       session_advance, session_end, session_step_onto_switch, session_restart, &
+                                       LINEAR_SOLVER_BLOCK
+  use rotorcable_sensitivity_newton, only: batched_newton, newton_attach, newton_free
   implicit none
   private
   public :: model_pointer, difference_points, parameter_sensitivity_run, parameter_partial
@@ -102,6 +104,7 @@ contains
     real(dp), intent(in), optional :: tolerance_scale
     real(dp) :: scale
     type(dae_session) :: s
+    type(batched_newton), target :: newton
     type(c_ptr), allocatable, target :: ys(:), yps(:), atols(:)
     real(c_double), pointer :: col(:), base_atol(:)
     real(dp), allocatable :: ys0(:, :), yps0(:, :)
@@ -156,6 +159,10 @@ contains
       ! convergence test; their accuracy is checked against whole-run differences
       ! (tests/test_flight_sensitivities.py).
       call check(IDASetSensErrCon(s%mem, 0_c_int), 'IDASetSensErrCon', s, error)
+      ! With the block solver, the corrector solves all the columns at once
+      ! (rotorcable_sensitivity_newton).
+      if (error%code == 0 .and. settings%linear_solver == LINEAR_SOLVER_BLOCK .and. associated(s%block)) &
+        call check(newton_attach(newton, s%mem, s%ctx, np, n, s%block), 'IDASetNonlinearSolverSensStg', s, error)
       call check(IDASetInitStep(s%mem, real(INIT_STEP*(t_out(size(t_out)) - t0), c_double)), 'IDASetInitStep', &
                  s, error)
     end if
@@ -186,6 +193,7 @@ contains
       call IDASensFree(s%mem)
     end if
     call session_end(s)
+    call newton_free(newton)
     stats = s%stats
     if (allocated(ys)) then
       do k = 1, np
