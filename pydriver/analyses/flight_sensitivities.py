@@ -274,13 +274,15 @@ def _amplitudes(x, dx, cyc: _CycleSet):
     return 0.5 * np.abs(diff), 0.5 * np.sign(diff) * (dx[cyc.end] - dx[cyc.start])
 
 
-def _signal(model, ts, spec) -> np.ndarray:
-    """A time-series signal: a column, or the fatigue quantity at a point around joint j."""
+def _signal(model, ts, spec, diameters=None) -> np.ndarray:
+    """A time-series signal: a column, or the fatigue quantity at a point around joint j
+    (``diameters``: the model's joint diameters, :func:`joint_geometry`, when the caller has them)."""
     if spec[0] == "column":
         return np.asarray(ts[spec[1]], float)
     _, j, phi = spec
     f = model.deck.values["fatigue"]
-    a, b, scale = _components(ts, j, f["sn_quantity"], 0.5 * joint_geometry(model)["diameter"][j - 1])
+    d = joint_geometry(model)["diameter"] if diameters is None else diameters
+    a, b, scale = _components(ts, j, f["sn_quantity"], 0.5 * d[j - 1])
     return scale * (np.sin(phi) * a - np.cos(phi) * b)
 
 
@@ -355,13 +357,15 @@ def output_derivatives(model, plans, outputs: _Outputs, ts: dict, t, q, v, sq, s
             mm = m or model
             qs, vs = q + s * pl.h * sq[:, :, k], v + s * pl.h * sv[:, :, k]
             tt = t * pl.parameter.value / (pl.parameter.value + s * pl.h) if speed is not None and speed[k] else t
-            runs.append((w, mm, chunk_columns(mm, tt, mm.core.sample(tt, qs, vs), qs, vs)))
+            # The joint diameters once per model (the jacket points' signals read them).
+            runs.append((w, mm, chunk_columns(mm, tt, mm.core.sample(tt, qs, vs), qs, vs),
+                         joint_geometry(mm)["diameter"]))
 
         def d_signal(spec, runs=runs, h=pl.h, memo=dict()):
             # A column read by several outputs (its peak and amplitude) is differenced once.
             if spec not in memo:
                 memo[spec] = np.full(n_samples, np.nan)
-                memo[spec][used] = sum(w * _signal(mm, c, spec) for w, mm, c in runs) / h
+                memo[spec][used] = sum(w * _signal(mm, c, spec, d) for w, mm, c, d in runs) / h
             return memo[spec]
 
         values.append(outputs.derivatives(signal_of, d_signal))
