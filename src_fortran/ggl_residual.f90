@@ -134,13 +134,14 @@ contains
     dy = 0.0_dp
     dyd = 0.0_dp
     call ggl_residual_dense(model, t, y, yd, r0)
+    ! Every column at the base point just evaluated: the workspace holds it (held).
     do j = 1, model%chain%n_bodies
       do k = model%chain%first_coord(j), model%chain%first_coord(j) + model%chain%n_joint_coords(j) - 1
         dy(k) = 1.0_dp
-        call ggl_residual_tangent(model, t, y, yd, dy, dyd, j, jac(:, k))
+        call ggl_residual_tangent(model, t, y, yd, dy, dyd, j, jac(:, k), held=.true.)
         dy(k) = 0.0_dp
         dy(nq + k) = 1.0_dp
-        call ggl_residual_tangent(model, t, y, yd, dy, dyd, j, jac(:, nq + k))
+        call ggl_residual_tangent(model, t, y, yd, dy, dyd, j, jac(:, nq + k), held=.true.)
         dy(nq + k) = 0.0_dp
       end do
     end do
@@ -151,18 +152,21 @@ contains
   !> Jacobian's columns share one).  dy and dyd must vanish on the joints before body `first`
   !> (1: any direction).
   !> With dyd = cj dy this is the iteration matrix times dy.
-  subroutine ggl_residual_tangent(model, t, y, yd, dy, dyd, first, dr)
+  subroutine ggl_residual_tangent(model, t, y, yd, dy, dyd, first, dr, held)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t                 !< time [s]
     real(dp), intent(in) :: y(:), yd(:)       !< unknowns and their derivatives
     real(dp), intent(in) :: dy(:), dyd(:)     !< their change
     integer, intent(in) :: first              !< first body with a change
     real(dp), intent(out) :: dr(:)            !< change of the residual
+    !> the caller has just evaluated the base point (t, y, y') on this model (an earlier column
+    !> of the same point): the workspace's record is not compared again (eom_residual_tangent)
+    logical, intent(in), optional :: held
     integer :: nq, nc, n
     nq = model%nq; nc = model%nc; n = 2*nq + 2*nc
     dr(1:nq) = dyd(1:nq) - dy(nq + 1:2*nq)
     call eom_residual_tangent(model, t, y(1:nq), y(nq + 1:2*nq), yd(nq + 1:2*nq), y(2*nq + 1:2*nq + nc), dy(1:nq), &
-                              dy(nq + 1:2*nq), dyd(nq + 1:2*nq), dy(2*nq + 1:2*nq + nc), first, dr(nq + 1:2*nq))
+                              dy(nq + 1:2*nq), dyd(nq + 1:2*nq), dy(2*nq + 1:2*nq + nc), first, dr(nq + 1:2*nq), held)
     if (nc == 0) return
     call model%support_b%residual_tangent(model%chain, model%st, model%dst, dr(2*nq + 1:2*nq + nc))
     call model%support_b%velocity_tangent(model%chain, model%st, model%dst, model%fs, dr(2*nq + nc + 1:n))
