@@ -11,7 +11,9 @@ without ``&design`` and with 1, 3 and 8 parameters, in two settings:
   one-revolution products, all parameters in one Krylov space (pydriver/analyses/flight_sensitivities.py).
 
 Reports the median wall time of --repeat runs and its ratio to the run without sensitivities
-(the issue's measure, on a quiet machine), and, robust to a busy machine, the paired ratio of
+(the issue's measure, on a quiet machine); the median over the rounds of each round's ratio
+(the runs are interleaved, every parameter count once a round, so that a drift of the machine's
+speed falls on all of them alike); and, robust to a busy machine, the paired ratio of
 each run with sensitivities: its wall time over its wall time less the sensitivities' own
 (``summary['sensitivities']['wall_time_s']`` and the parameters' model builds,
 ``model_builds_wall_time_s``; the rest is the run as without them), median over the repeats;
@@ -73,21 +75,31 @@ def main():
     args = parser.parse_args()
     base = pydriver.Model.from_deck(DECK).with_changes({"refinement.levels": 1})
     rows = []
+    counts = (0, 1, 3, 8)
     for floquet in (True, False):
-        ref = None
-        for n_par in (0, 1, 3, 8):
+        models = {}
+        for n_par in counts:
             changes = {"solver.floquet": floquet}
             if n_par:
                 changes["design.parameters"] = PARAMETERS[:n_par]
-            model = base.with_changes(changes)
-            runs = [one(model) for _ in range(args.repeat)]
-            wall = statistics.median(r[0] for r in runs)
-            ref = wall if n_par == 0 else ref
-            paired = statistics.median(r[2] for r in runs)
+            models[n_par] = base.with_changes(changes)
+        # Interleaved: each round runs every parameter count once, so that a drift of the
+        # machine's speed between rounds falls on all of them alike (the round's ratio).
+        runs = {n_par: [] for n_par in counts}
+        for _ in range(args.repeat):
+            for n_par in counts:
+                runs[n_par].append(one(models[n_par]))
+        ref = statistics.median(r[0] for r in runs[0])
+        for n_par in counts:
+            wall = statistics.median(r[0] for r in runs[n_par])
+            paired = statistics.median(r[2] for r in runs[n_par])
+            per_round = statistics.median(r[0] / r0[0] for r, r0 in zip(runs[n_par], runs[0]))
             rows.append({"floquet": "on" if floquet else "off", "parameters": n_par, "median_wall_s": wall,
-                         "ratio": wall / ref, "paired_ratio": paired, "work": runs[0][1]})
+                         "ratio": wall / ref, "round_ratio": per_round, "paired_ratio": paired,
+                         "work": runs[n_par][0][1]})
             print(f"floquet {rows[-1]['floquet']:3s}  {n_par} parameters: {wall:7.3f} s  "
-                  f"{wall / ref:5.2f}x  paired {paired:5.2f}x  {runs[0][1]}", flush=True)
+                  f"{wall / ref:5.2f}x  round {per_round:5.2f}x  paired {paired:5.2f}x  {runs[n_par][0][1]}",
+                  flush=True)
     out = ROOT / "benchmarks" / "results" / "flight_sensitivities.csv"
     with out.open("w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))

@@ -264,9 +264,9 @@ contains
     call c_f_pointer(N_VGetArrayPointer(rr), r, [big])
     ! The state's residual first: the tangents reuse its kinematics, loads and wrenches.
     call ggl_residual_dense(td%model, t, y(1:n), yd(1:n), r(1:n))
-    do k = 1, td%ns
+    do k = 1, td%ns                           ! all at the point just evaluated (held)
       call ggl_residual_tangent(td%model, t, y(1:n), yd(1:n), y(k*n + 1:(k + 1)*n), yd(k*n + 1:(k + 1)*n), 1, &
-                                r(k*n + 1:(k + 1)*n))
+                                r(k*n + 1:(k + 1)*n), held=.true.)
     end do
     ! The iterate of this residual is where a factorisation that follows is taken.
     td%t = t; td%y = y(1:n); td%yd = yd(1:n)
@@ -339,7 +339,7 @@ contains
       yp = td%y + eps*dy; ydp = td%yd + eps*cj*dy
       call ggl_residual_dense(td%model, td%t, yp, ydp, r0)
       do k = 1, td%ns
-        call ggl_residual_tangent(td%model, td%t, yp, ydp, td%s(:, k), td%sd(:, k), 1, rk)
+        call ggl_residual_tangent(td%model, td%t, yp, ydp, td%s(:, k), td%sd(:, k), 1, rk, held=.true.)
         xv(k*n + 1:(k + 1)*n) = xv(k*n + 1:(k + 1)*n) - (rk - td%rs(:, k))/eps
       end do
       ! The model's kinematics and loads back at the iterate (ggl_residual_tangent reads them).
