@@ -65,30 +65,41 @@ contains
     real(dp), intent(in) :: dq(:)              !< coordinate direction
     integer, intent(in) :: first               !< first body whose joint has dq /= 0
     type(chain_tangent), intent(inout) :: dst  !< tangent (positions filled)
+    dst%first = first
+    call positions_tangent_pass(chain%n_bodies, size(dq), first, chain%n_joint_coords, chain%first_coord, &
+                                st%joint_point, st%axes, dq, dst%dtheta, dst%djoint_point, dst%dcm, dst%daxes)
+  end subroutine positions_tangent
+
+  !> positions_tangent's recursion on explicit-shape arrays (why: motion_tangent_pass).
+  pure subroutine positions_tangent_pass(n, nq, first, n_joint_coords, first_coord, joint_point, axes, dq, &
+                                         dtheta, djoint_point, dcm, daxes)
+    integer, intent(in) :: n, nq, first
+    integer, intent(in) :: n_joint_coords(n), first_coord(n)
+    real(dp), intent(in) :: joint_point(3, n + 1), axes(3, MAX_JOINT_DOF, n), dq(nq)
+    real(dp), intent(inout) :: dtheta(3, n), djoint_point(3, n + 1), dcm(3, n), daxes(3, MAX_JOINT_DOF, n)
     real(dp) :: w(3), a(3), r(3), th(3)
     integer :: j, k, i0, nd
-    dst%first = first
-    dst%dtheta(:, 1:first - 1) = 0.0_dp
-    dst%djoint_point(:, 1:first) = 0.0_dp
-    dst%dcm(:, 1:first - 1) = 0.0_dp
-    dst%daxes(:, :, 1:first - 1) = 0.0_dp
+    dtheta(:, 1:first - 1) = 0.0_dp
+    djoint_point(:, 1:first) = 0.0_dp
+    dcm(:, 1:first - 1) = 0.0_dp
+    daxes(:, :, 1:first - 1) = 0.0_dp
     w = 0.0_dp                                ! the bodies before `first` do not turn
-    do j = first, chain%n_bodies
-      nd = chain%n_joint_coords(j)
-      i0 = chain%first_coord(j) - 1
+    do j = first, n
+      nd = n_joint_coords(j)
+      i0 = first_coord(j) - 1
       do k = 1, nd
-        a = st%axes(:, k, j)
-        dst%daxes(:, k, j) = cross(w, a)
+        a = axes(:, k, j)
+        daxes(:, k, j) = cross(w, a)
         w = w + a*dq(i0 + k)
       end do
-      dst%dtheta(:, j) = w
+      dtheta(:, j) = w
       th = w
-      r = st%joint_point(:, j + 1) - st%joint_point(:, j)
+      r = joint_point(:, j + 1) - joint_point(:, j)
       r = cross(th, r)
-      dst%dcm(:, j) = dst%djoint_point(:, j) + 0.5_dp*r
-      dst%djoint_point(:, j + 1) = dst%djoint_point(:, j) + r
+      dcm(:, j) = djoint_point(:, j) + 0.5_dp*r
+      djoint_point(:, j + 1) = djoint_point(:, j) + r
     end do
-  end subroutine positions_tangent
+  end subroutine positions_tangent_pass
 
   !> Tangent of the velocities and accelerations for (dq, dv, dvdot), positions tangent current
   !> (positions_tangent), from body dst%first on; chain_motion must be current in st.
@@ -99,59 +110,80 @@ contains
     real(dp), intent(in) :: qd(:), qdd(:)      !< rates and accelerations
     real(dp), intent(in) :: dqd(:), dqdd(:)    !< their directions
     type(chain_tangent), intent(inout) :: dst  !< tangent (motion filled)
+    call motion_tangent_pass(chain%n_bodies, size(qd), dst%first, chain%n_joint_coords, chain%first_coord, &
+                             chain%joint_kind, seed%omega, st%omega, st%alpha, st%joint_point, st%axes, qd, qdd, &
+                             dqd, dqdd, dst%dtheta, dst%daxes, dst%domega, dst%dalpha, dst%dvel_joint, &
+                             dst%dacc_joint, dst%dvel_cm, dst%dacc_cm)
+  end subroutine motion_tangent
+
+  !> motion_tangent's recursion on explicit-shape arrays.  Why a second routine: the tangent
+  !> runs once per body and column (a Jacobian's 44 columns, 8 parameters x 2 corrector
+  !> iterations a step), and through the derived types' allocatable components every access
+  !> re-derives its address from a descriptor; here the arrays are plain contiguous dummies and
+  !> the joint's axes are read in place.  The arithmetic is the same, in the same order.
+  pure subroutine motion_tangent_pass(n, nq, first, n_joint_coords, first_coord, joint_kind, seed_omega, &
+                                      omega, alpha, joint_point, axes, qd, qdd, dqd, dqdd, dtheta, daxes, &
+                                      domega, dalpha, dvel_joint, dacc_joint, dvel_cm, dacc_cm)
+    integer, intent(in) :: n, nq, first
+    integer, intent(in) :: n_joint_coords(n), first_coord(n), joint_kind(n)
+    real(dp), intent(in) :: seed_omega(3), omega(3, n), alpha(3, n), joint_point(3, n + 1)
+    real(dp), intent(in) :: axes(3, MAX_JOINT_DOF, n), qd(nq), qdd(nq), dqd(nq), dqdd(nq)
+    real(dp), intent(in) :: dtheta(3, n), daxes(3, MAX_JOINT_DOF, n)
+    real(dp), intent(inout) :: domega(3, n), dalpha(3, n), dvel_joint(3, n + 1), dacc_joint(3, n + 1)
+    real(dp), intent(inout) :: dvel_cm(3, n), dacc_cm(3, n)
     real(dp) :: w_parent(3), dw_parent(3), da_parent(3), w_rel(3), dw_rel(3), r(3), dr(3), dvr(3), ddvr(3), dda(3)
-    real(dp) :: a(3), da(3), dw(3), dal(3), ax(3, MAX_JOINT_DOF), dax(3, MAX_JOINT_DOF), rt(MAX_JOINT_DOF), drt(MAX_JOINT_DOF)
-    integer :: j, k, i0, nd, first
-    first = dst%first
-    dst%domega(:, 1:first - 1) = 0.0_dp
-    dst%dalpha(:, 1:first - 1) = 0.0_dp
-    dst%dvel_joint(:, 1:first) = 0.0_dp
-    dst%dacc_joint(:, 1:first) = 0.0_dp
-    dst%dvel_cm(:, 1:first - 1) = 0.0_dp
-    dst%dacc_cm(:, 1:first - 1) = 0.0_dp
+    real(dp) :: a(3), da(3), dw(3), dal(3), rt(MAX_JOINT_DOF), drt(MAX_JOINT_DOF)
+    integer :: j, k, i0, nd
+    domega(:, 1:first - 1) = 0.0_dp
+    dalpha(:, 1:first - 1) = 0.0_dp
+    dvel_joint(:, 1:first) = 0.0_dp
+    dacc_joint(:, 1:first) = 0.0_dp
+    dvel_cm(:, 1:first - 1) = 0.0_dp
+    dacc_cm(:, 1:first - 1) = 0.0_dp
     dw_parent = 0.0_dp
     da_parent = 0.0_dp
-    do j = first, chain%n_bodies
-      w_parent = seed%omega
+    do j = first, n
+      w_parent = seed_omega
       if (j > 1) then
-        w_parent = st%omega(:, j - 1)
-        dw_parent = dst%domega(:, j - 1)
-        da_parent = dst%dalpha(:, j - 1)
+        w_parent = omega(:, j - 1)
+        dw_parent = domega(:, j - 1)
+        da_parent = dalpha(:, j - 1)
       end if
-      nd = chain%n_joint_coords(j)
+      nd = n_joint_coords(j)
       dw = dw_parent
       dal = da_parent
       if (nd > 0) then
-        i0 = chain%first_coord(j) - 1
+        i0 = first_coord(j) - 1
         w_rel = 0.0_dp
         dw_rel = 0.0_dp
-        ! Fixed-size copies of the joint's axes and rates (joint_bias_tangent's arguments).
-        ax = 0.0_dp; dax = 0.0_dp; rt = 0.0_dp; drt = 0.0_dp
+        ! The rates as joint_bias_tangent's fixed-size arguments; the axes are read in place
+        ! (a joint reads only its first nd columns: nd is 0 or its parametrisation's count).
+        rt = 0.0_dp; drt = 0.0_dp
         do k = 1, nd
-          a = st%axes(:, k, j)
-          da = dst%daxes(:, k, j)
-          ax(:, k) = a; dax(:, k) = da; rt(k) = qd(i0 + k); drt(k) = dqd(i0 + k)
+          a = axes(:, k, j)
+          da = daxes(:, k, j)
+          rt(k) = qd(i0 + k); drt(k) = dqd(i0 + k)
           w_rel = w_rel + a*qd(i0 + k)
           dw_rel = dw_rel + da*qd(i0 + k) + a*dqd(i0 + k)
           dal = dal + da*qdd(i0 + k) + a*dqdd(i0 + k)
         end do
         dw = dw + dw_rel
         dal = dal + cross(dw_parent, w_rel) + cross(w_parent, dw_rel) &
-              + joint_bias_tangent(chain%joint_kind(j), ax, dax, rt, drt)
+              + joint_bias_tangent(joint_kind(j), axes(:, :, j), daxes(:, :, j), rt, drt)
       end if
-      dst%domega(:, j) = dw
-      dst%dalpha(:, j) = dal
+      domega(:, j) = dw
+      dalpha(:, j) = dal
       ! Rigid-body transport along the body (eq. 3.14, 3.21) and its product rule.
-      r = st%joint_point(:, j + 1) - st%joint_point(:, j)
-      dr = cross(dst%dtheta(:, j), r)
-      dvr = cross(st%omega(:, j), r)
-      ddvr = cross(dw, r) + cross(st%omega(:, j), dr)
-      dda = cross(dal, r) + cross(st%alpha(:, j), dr) + cross(dw, dvr) + cross(st%omega(:, j), ddvr)
-      dst%dvel_cm(:, j) = dst%dvel_joint(:, j) + 0.5_dp*ddvr
-      dst%dacc_cm(:, j) = dst%dacc_joint(:, j) + 0.5_dp*dda
-      dst%dvel_joint(:, j + 1) = dst%dvel_joint(:, j) + ddvr
-      dst%dacc_joint(:, j + 1) = dst%dacc_joint(:, j) + dda
+      r = joint_point(:, j + 1) - joint_point(:, j)
+      dr = cross(dtheta(:, j), r)
+      dvr = cross(omega(:, j), r)
+      ddvr = cross(dw, r) + cross(omega(:, j), dr)
+      dda = cross(dal, r) + cross(alpha(:, j), dr) + cross(dw, dvr) + cross(omega(:, j), ddvr)
+      dvel_cm(:, j) = dvel_joint(:, j) + 0.5_dp*ddvr
+      dacc_cm(:, j) = dacc_joint(:, j) + 0.5_dp*dda
+      dvel_joint(:, j + 1) = dvel_joint(:, j) + ddvr
+      dacc_joint(:, j + 1) = dacc_joint(:, j) + dda
     end do
-  end subroutine motion_tangent
+  end subroutine motion_tangent_pass
 
 end module rotorcable_kinematics_tangent

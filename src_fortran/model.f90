@@ -314,7 +314,7 @@ contains
     end if
     if (.not. model%ws%linearised) then       ! once per state, for all the columns taken there
       do i = 1, size(model%loads)
-        call model%loads(i)%term%linearise(model%chain, model%st, q, v)
+        call model%loads(i)%term%linearise(model%chain, model%st, model%fs, q, v)
       end do
       if (model%nc > 0) call model%support_b%linearise(model%chain, model%st)
       if (model%fs%rotating .and. .not. model%fs%body_couples) then

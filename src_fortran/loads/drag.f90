@@ -27,8 +27,15 @@ module rotorcable_loads_drag
     real(dp) :: density = 1.225_dp            !< air density [kg/m^3]
     real(dp) :: stream(3) = 0.0_dp            !< free stream, inertial frame [m/s]
     real(dp), allocatable :: cd_area(:)       !< 1/2 rho C_d d_j L_j per body [kg/m]
+    ! The state's factors of the tangent (linearise), shared by all the columns taken there:
+    real(dp), allocatable :: axis(:, :)       !< (3,n) body axes e
+    real(dp), allocatable :: air(:, :)        !< (3,n) u = stream - v_C [m/s]
+    real(dp), allocatable :: normal_air(:, :) !< (3,n) u_n [m/s]
+    real(dp), allocatable :: air_along(:)     !< (n) u . e [m/s]
+    real(dp), allocatable :: normal_speed(:)  !< (n) |u_n| [m/s]
   contains
     procedure :: add_forces
+    procedure :: linearise
     procedure :: add_force_tangent
   end type drag_load
 
@@ -63,27 +70,66 @@ contains
     end do
   end subroutine add_forces
 
+  !> The tangent's state-only factors at the state (t, q, v) of st: each body's axis, air
+  !> velocity and its normal part and size, formed once for all the columns taken there (a
+  !> Jacobian's 44, 8 parameters x 2 corrector iterations) instead of per column.
+  subroutine linearise(self, chain, st, fs, q, v)
+    class(drag_load), intent(inout) :: self
+    type(chain_type), intent(in) :: chain     !< chain description
+    type(chain_state), intent(in) :: st       !< frames, velocities at the state
+    type(frame_state), intent(in) :: fs       !< the model frame's motion at the state's time
+    real(dp), intent(in) :: q(:), v(:)        !< coordinates [rad] and rates [rad/s] (not needed)
+    real(dp) :: stream(3), u(3), e(3)
+    integer :: j, n
+    n = chain%n_bodies
+    if (allocated(self%air_along)) then
+      if (size(self%air_along) /= n) deallocate (self%axis, self%air, self%normal_air, self%air_along, self%normal_speed)
+    end if
+    if (.not. allocated(self%air_along)) allocate (self%axis(3, n), self%air(3, n), self%normal_air(3, n), &
+                                                   self%air_along(n), self%normal_speed(n))
+    stream = matmul(self%stream, fs%rotation)
+    do j = 1, n
+      e = st%rot(:, 3, j)
+      u = stream - st%vel_cm(:, j)
+      self%axis(:, j) = e
+      self%air(:, j) = u
+      self%air_along(j) = dot_product(u, e)
+      self%normal_air(:, j) = u - dot_product(u, e)*e
+      self%normal_speed(j) = norm2(self%normal_air(:, j))
+    end do
+  end subroutine linearise
+
   !> d(|u_n| u_n) = |u_n| du_n + (u_n . du_n / |u_n|) u_n with du = -dv_C (the stream is fixed at
   !> t) and de = dtheta x e: du_n = du - (du.e + u.de) e - (u.e) de.  |u_n| u_n is continuously
-  !> differentiable at u_n = 0, where its derivative vanishes.
+  !> differentiable at u_n = 0, where its derivative vanishes.  The state's factors from linearise.
   pure subroutine add_force_tangent(self, chain, st, dst, fs, t, q, v, dq, dv, dforce, dmoment, dtau)
     class(drag_load), intent(in) :: self
     include 'force_tangent_arguments.inc'
-    real(dp) :: stream(3), u(3), e(3), de(3), du(3), un(3), dun(3), th(3), size_un
-    integer :: j
-    stream = matmul(self%stream, fs%rotation)
-    do j = dst%first, chain%n_bodies
-      e = st%rot(:, 3, j)
-      th = dst%dtheta(:, j)
-      de = cross(th, e)
-      u = stream - st%vel_cm(:, j)
-      du = -dst%dvel_cm(:, j)
-      un = u - dot_product(u, e)*e
-      size_un = norm2(un)
-      if (.not. size_un > 0.0_dp) cycle
-      dun = du - (dot_product(du, e) + dot_product(u, de))*e - dot_product(u, e)*de
-      dforce(:, j) = dforce(:, j) + self%cd_area(j)*(size_un*dun + dot_product(un, dun)/size_un*un)
-    end do
+    call drag_tangent_pass(chain%n_bodies, dst%first, self%cd_area, self%axis, self%air, self%normal_air, &
+                           self%air_along, self%normal_speed, dst%dtheta, dst%dvel_cm, dforce)
   end subroutine add_force_tangent
+
+  !> add_force_tangent's loop on explicit-shape arrays (why: rotorcable_kinematics_tangent,
+  !> motion_tangent_pass); the arithmetic of the formula above, in its order.
+  pure subroutine drag_tangent_pass(n, first, cd_area, axis, air, normal_air, air_along, normal_speed, dtheta, &
+                                    dvel_cm, dforce)
+    integer, intent(in) :: n, first
+    real(dp), intent(in) :: cd_area(n), axis(3, n), air(3, n), normal_air(3, n), air_along(n), normal_speed(n)
+    real(dp), intent(in) :: dtheta(3, n), dvel_cm(3, n)
+    real(dp), intent(inout) :: dforce(3, n)
+    real(dp) :: u(3), e(3), de(3), du(3), un(3), dun(3), size_un
+    integer :: j
+    do j = first, n
+      size_un = normal_speed(j)
+      if (.not. size_un > 0.0_dp) cycle
+      e = axis(:, j)
+      u = air(:, j)
+      un = normal_air(:, j)
+      de = cross(dtheta(:, j), e)
+      du = -dvel_cm(:, j)
+      dun = du - (dot_product(du, e) + dot_product(u, de))*e - air_along(j)*de
+      dforce(:, j) = dforce(:, j) + cd_area(j)*(size_un*dun + dot_product(un, dun)/size_un*un)
+    end do
+  end subroutine drag_tangent_pass
 
 end module rotorcable_loads_drag

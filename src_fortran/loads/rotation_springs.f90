@@ -214,10 +214,11 @@ contains
   !> joint_torque_tangent of the joint's three unit angle directions (the map is linear in
   !> them), the same formula as one direction at a time summed in another order; its rate
   !> columns are that formula's rate part in closed form, d(tau)/d(qdot) = -A^T D A.
-  subroutine linearise(self, chain, st, q, v)
+  subroutine linearise(self, chain, st, fs, q, v)
     class(rotation_springs_load), intent(inout) :: self
     type(chain_type), intent(in) :: chain     !< chain description
     type(chain_state), intent(in) :: st       !< frames, velocities at the state (not needed)
+    type(frame_state), intent(in) :: fs       !< the model frame's motion (not needed)
     real(dp), intent(in) :: q(:), v(:)        !< coordinates [rad] and rates [rad/s]
     real(dp) :: phi(3), a(3, 3), c, dc_da, unit(3), zero(3)
     integer :: j, i0, k, l

@@ -102,10 +102,11 @@ contains
   end subroutine no_joint_diagonal
 
   !> Keep what add_force_tangent needs at the state (t, q, v) of st: nothing, by default.
-  subroutine no_linearise(self, chain, st, q, v)
+  subroutine no_linearise(self, chain, st, fs, q, v)
     class(load_term), intent(inout) :: self   !< the load
     type(chain_type), intent(in) :: chain     !< chain description
     type(chain_state), intent(in) :: st       !< frames, velocities at the state
+    type(frame_state), intent(in) :: fs       !< the model frame's motion at the state's time
     real(dp), intent(in) :: q(:), v(:)        !< coordinates [rad] and rates [rad/s]
   end subroutine no_linearise
 

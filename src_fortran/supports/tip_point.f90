@@ -13,6 +13,7 @@ module rotorcable_supports_tip_point
   use rotorcable_kinematics_tangent, only: chain_tangent
   use rotorcable_frame, only: frame_state, relative_velocity, relative_acceleration
   use rotorcable_rotations, only: cross
+  use rotorcable_joint, only: MAX_JOINT_DOF
   implicit none
   private
   public :: tip_jacobian, add_tip_wrench, add_tip_wrench_tangent, tip_velocity, tip_acceleration, &
@@ -66,23 +67,38 @@ contains
     real(dp), intent(in) :: force(3), dforce(3)    !< F and its change
     real(dp), intent(in) :: moment(3), dmoment(3)  !< M and its change
     real(dp), intent(inout) :: dr(:)          !< (nq) changes to add to
+    call tip_wrench_tangent_pass(chain%n_bodies, size(dr), chain%n_joint_coords, chain%first_coord, &
+                                 st%joint_point, st%axes, dst%djoint_point, dst%daxes, force, dforce, moment, &
+                                 dmoment, dr)
+  end subroutine add_tip_wrench_tangent
+
+  !> add_tip_wrench_tangent's loop on explicit-shape arrays: it runs per column (a Jacobian's,
+  !> a sensitivity's), and the derived types' allocatable components cost an address from a
+  !> descriptor at every access (rotorcable_kinematics_tangent, motion_tangent_pass).
+  pure subroutine tip_wrench_tangent_pass(n, nq, n_joint_coords, first_coord, joint_point, axes, djoint_point, &
+                                          daxes, force, dforce, moment, dmoment, dr)
+    integer, intent(in) :: n, nq
+    integer, intent(in) :: n_joint_coords(n), first_coord(n)
+    real(dp), intent(in) :: joint_point(3, n + 1), axes(3, MAX_JOINT_DOF, n)
+    real(dp), intent(in) :: djoint_point(3, n + 1), daxes(3, MAX_JOINT_DOF, n)
+    real(dp), intent(in) :: force(3), dforce(3), moment(3), dmoment(3)
+    real(dp), intent(inout) :: dr(nq)
     real(dp) :: tip(3), dtip(3), arm(3), darm(3), w(3), dw(3)
-    integer :: j, kk, k, n
-    n = chain%n_bodies
-    tip = st%joint_point(:, n + 1)
-    dtip = dst%djoint_point(:, n + 1)
+    integer :: j, kk, k
+    tip = joint_point(:, n + 1)
+    dtip = djoint_point(:, n + 1)
     do j = 1, n
-      if (chain%n_joint_coords(j) == 0) cycle
-      arm = tip - st%joint_point(:, j)
-      darm = dtip - dst%djoint_point(:, j)
+      if (n_joint_coords(j) == 0) cycle
+      arm = tip - joint_point(:, j)
+      darm = dtip - djoint_point(:, j)
       w = cross(arm, force) + moment
       dw = cross(darm, force) + cross(arm, dforce) + dmoment
-      do kk = 1, chain%n_joint_coords(j)
-        k = chain%first_coord(j) + kk - 1
-        dr(k) = dr(k) + dot_product(dst%daxes(:, kk, j), w) + dot_product(st%axes(:, kk, j), dw)
+      do kk = 1, n_joint_coords(j)
+        k = first_coord(j) + kk - 1
+        dr(k) = dr(k) + dot_product(daxes(:, kk, j), w) + dot_product(axes(:, kk, j), dw)
       end do
     end do
-  end subroutine add_tip_wrench_tangent
+  end subroutine tip_wrench_tangent_pass
 
   !> The tip's velocity relative to the model frame less the point's: G v + g_t of the rows.
   pure function tip_velocity(chain, st, fs, point_velocity) result(out)
