@@ -471,6 +471,15 @@ class CoreModel:
         _raise(self.deck, stat, "", msg)
         return dr
 
+    def residual_tangent_columns(self, y, yd, dy, dyd, t: float = 0.0) -> np.ndarray:
+        """residual_tangent of every column of dy, dyd (n, m) at once: the path of the
+        sensitivity residual (the chain's tangents over blocks of columns)."""
+        dr, stat, msg = _probes.rc_probe_residual_tangent_columns(self.handle, float(t), _reals(y), _reals(yd),
+                                                                  np.asfortranarray(dy, float),
+                                                                  np.asfortranarray(dyd, float))
+        _raise(self.deck, stat, "", msg)
+        return dr
+
     def integrate_timed(self, method: int, settings: dict, t0: float, t_end: float, q0, v0, n_samples: int,
                         baumgarte_omega: float = 50.0) -> dict:
         """One timed integration (1 IDA, 2 GSL rk8pd, 3 GSL msbdf): CM samples (n_samples, n, 3)

@@ -9,14 +9,18 @@
 module rotorcable_ggl_residual
   use, intrinsic :: iso_c_binding, only: c_int, c_long, c_double, c_ptr, c_null_ptr, c_f_pointer
   use rotorcable_kinds, only: dp
-  use rotorcable_model, only: model_type, eom_residual, eom_residual_tangent, constraint_jacobian, mass_matrix
+  use rotorcable_model, only: model_type, eom_residual, eom_residual_tangent, constraint_jacobian, mass_matrix, &
+                              tangent_base_point
+  use rotorcable_chain_tangent_columns, only: columns_allocate, positions_tangent_columns, &
+                                              motion_tangent_columns, inverse_dynamics_tangent_columns, column_of, put, &
+                                              COLUMN_BLOCK
   use rotorcable_ida_binding, only: N_VGetArrayPointer, SUNDenseMatrix_Data, IDAGetNumSteps, &
                                     IDAGetNumNonlinSolvConvFails
   use rotorcable_ggl_linear_solver, only: ggl_block_solver
   implicit none
   private
-  public :: ida_user_data, ggl_residual, ggl_residual_dense, ggl_residual_tangent, ggl_jacobian, ggl_jacobian_dense, &
-            physics_jacobian
+  public :: ida_user_data, ggl_residual, ggl_residual_dense, ggl_residual_tangent, ggl_residual_tangent_columns, &
+            ggl_jacobian, ggl_jacobian_dense, physics_jacobian
 
   !> User data handed to IDA (c_loc), turned back with c_f_pointer in the callbacks.
   type :: ida_user_data
@@ -173,6 +177,85 @@ contains
     call model%support_b%add_jacobian_transpose_tangent(model%chain, model%st, model%dst, y(2*nq + nc + 1:n), &
                                                   dy(2*nq + nc + 1:n), dr(1:nq))
   end subroutine ggl_residual_tangent
+
+  !> ggl_residual_tangent for m columns (dy(:, c), dyd(:, c)) at once, each from body 1 on:
+  !> dr(:, c) the same bits as ggl_residual_tangent(..., dy(:, c), dyd(:, c), 1, dr(:, c)).
+  !> The chain's kinematics and Newton-Euler tangents run over blocks of COLUMN_BLOCK columns
+  !> (rotorcable_chain_tangent_columns: each body's state read once a block, the columns'
+  !> arithmetic vectorised); the loads' and the support's tangents, a few flops a body, column
+  !> by column on model%dst.
+  subroutine ggl_residual_tangent_columns(model, t, y, yd, dy, dyd, dr)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: y(:), yd(:)       !< unknowns and their derivatives
+    real(dp), intent(in) :: dy(:, :), dyd(:, :)  !< (n, m) their changes
+    real(dp), intent(out) :: dr(:, :)         !< (n, m) changes of the residual
+    real(dp) :: f_b(3), m_b(3), df_b(3), dm_b(3)
+    integer :: nq, nc, n, m, c, b, i, k, width
+    nq = model%nq; nc = model%nc; n = 2*nq + 2*nc; m = size(dy, 2)
+    call tangent_base_point(model, t, y(1:nq), y(nq + 1:2*nq), yd(nq + 1:2*nq), y(2*nq + 1:2*nq + nc))
+    call columns_allocate(model%chain, model%dst_columns)
+    f_b = 0.0_dp
+    if (nc > 0) call model%support_b%wrench(model%chain, model%st, y(2*nq + 1:2*nq + nc), f_b, m_b)
+    associate (tc => model%dst_columns)
+      do b = 1, m, COLUMN_BLOCK
+        width = min(COLUMN_BLOCK, m - b + 1)
+        ! The block's directions, column first (zero columns pad the last block).
+        if (width < COLUMN_BLOCK) then
+          tc%dq = 0.0_dp; tc%dv = 0.0_dp; tc%dvdot = 0.0_dp
+        end if
+        do c = 1, width
+          call put(dy(1:nq, b + c - 1), c, nq, tc%dq)
+          call put(dy(nq + 1:2*nq, b + c - 1), c, nq, tc%dv)
+          call put(dyd(nq + 1:2*nq, b + c - 1), c, nq, tc%dvdot)
+        end do
+        call positions_tangent_columns(model%chain, model%st, tc)
+        call motion_tangent_columns(model%chain, model%seed, model%st, y(nq + 1:2*nq), yd(nq + 1:2*nq), tc)
+        if (width < COLUMN_BLOCK) then            ! the padding: no loads' changes
+          tc%dforce = 0.0_dp; tc%dmoment = 0.0_dp; tc%dtau = 0.0_dp
+          tc%dtip_force = 0.0_dp; tc%dtip_moment = 0.0_dp
+        end if
+        do c = 1, width
+          k = b + c - 1
+          ! The loads' and the support's tangents of column k (as eom_residual_tangent and
+          ! ggl_residual_tangent take them).
+          call column_of(tc, c, model%dst)
+          model%dforce = 0.0_dp
+          model%dmoment = 0.0_dp
+          model%dtau = 0.0_dp
+          do i = 1, size(model%loads)
+            call model%loads(i)%term%add_force_tangent(model%chain, model%st, model%dst, model%fs, t, y(1:nq), &
+                                                       y(nq + 1:2*nq), dy(1:nq, k), dy(nq + 1:2*nq, k), &
+                                                       model%dforce, model%dmoment, model%dtau)
+          end do
+          call put(model%dforce, c, size(model%dforce), tc%dforce)
+          call put(model%dmoment, c, size(model%dmoment), tc%dmoment)
+          call put(model%dtau, c, nq, tc%dtau)
+          df_b = 0.0_dp; dm_b = 0.0_dp
+          dr(1:nq, k) = dyd(1:nq, k) - dy(nq + 1:2*nq, k)
+          if (nc > 0) then
+            call model%support_b%wrench_tangent(model%chain, model%st, model%dst, y(2*nq + 1:2*nq + nc), &
+                                                dy(2*nq + 1:2*nq + nc, k), df_b, dm_b)
+            call model%support_b%residual_tangent(model%chain, model%st, model%dst, dr(2*nq + 1:2*nq + nc, k))
+            call model%support_b%velocity_tangent(model%chain, model%st, model%dst, model%fs, dr(2*nq + nc + 1:n, k))
+            call model%support_b%add_jacobian_transpose_tangent(model%chain, model%st, model%dst, y(2*nq + nc + 1:n), &
+                                                                dy(2*nq + nc + 1:n, k), dr(1:nq, k))
+          end if
+          tc%dtip_force(c, :) = df_b
+          tc%dtip_moment(c, :) = dm_b
+        end do
+        if (model%fs%rotating .and. .not. model%fs%body_couples) then
+          call inverse_dynamics_tangent_columns(model%chain, model%st, model%lin_inertia, model%force, f_b, tc, &
+                                                model%fs%omega, model%fs%omega_dot)
+        else
+          call inverse_dynamics_tangent_columns(model%chain, model%st, model%lin_inertia, model%force, f_b, tc)
+        end if
+        do c = 1, width
+          dr(nq + 1:2*nq, b + c - 1) = tc%dres(c, :) - tc%dtau(c, :)
+        end do
+      end do
+    end associate
+  end subroutine ggl_residual_tangent_columns
 
   !> The physics columns by central differences of the residual at fixed y' (the check of the
   !> analytic columns, so accuracy before cost: truncation ~h^2, round-off ~eps/h, balanced at

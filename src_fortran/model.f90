@@ -22,6 +22,7 @@ module rotorcable_model
   use rotorcable_inverse_dynamics, only: inverse_dynamics, world_inertia_times
   use rotorcable_kinematics_tangent, only: chain_tangent, tangent_allocate, positions_tangent, motion_tangent
   use rotorcable_inverse_dynamics_tangent, only: inverse_dynamics_tangent, inertia_linearisation, linearise_inertia
+  use rotorcable_chain_tangent_columns, only: tangent_columns
   use rotorcable_mass_matrix, only: mass_matrix_crba
   use rotorcable_linalg, only: solve_dense
   use rotorcable_rotations, only: cross
@@ -38,7 +39,8 @@ module rotorcable_model
             constraint_residual, constraint_jacobian, constraint_bias, constraint_velocity, &
             solve_accelerations, positions_at, total_energy, &
             switch_times, joint_diagonal, all_conservative, model_stale, state_motion, state_energies, &
-            workspace_holds, HOLDS_FRAMES, HOLDS_MOTION, HOLDS_EOM, add_load_forces, applied_generalized_forces, &
+            workspace_holds, tangent_base_point, HOLDS_FRAMES, HOLDS_MOTION, HOLDS_EOM, add_load_forces, &
+            applied_generalized_forces, &
             other_bodies_residual
 
   !> What the workspace holds, in increasing order: nothing; the frames (positions) of (t, q);
@@ -88,6 +90,7 @@ module rotorcable_model
     real(dp), allocatable :: dmoment(:, :)    !< (3,n) change of the applied moments
     real(dp), allocatable :: dtau(:)          !< (nq) change of the applied generalized forces
     type(inertia_linearisation) :: lin_inertia  !< the tangent pass's state-only factors
+    type(tangent_columns) :: dst_columns      !< a block of columns' changes (ggl_residual_tangent_columns)
   end type model_type
 
 contains
@@ -285,6 +288,37 @@ contains
     call record(model, HOLDS_EOM, t, q, v, vdot, lambda)
   end subroutine eom_residual
 
+  !> The pass a tangent is taken about: eom_residual at (t, q, v, vdot, lambda), evaluated here
+  !> unless the workspace holds it (or `held`: an earlier column of the same point was just
+  !> taken; comparing the record costs ~5 % of a column), and the loads', support's and
+  !> inertias' state-only factors (linearise), once per state for all the columns taken there.
+  subroutine tangent_base_point(model, t, q, v, vdot, lambda, held)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: q(:), v(:), vdot(:)  !< coordinates, rates, accelerations
+    real(dp), intent(in) :: lambda(:)         !< multipliers (size nc)
+    logical, intent(in), optional :: held     !< the workspace holds the point (not compared)
+    real(dp) :: scratch(model%nq)
+    integer :: i
+    logical :: known
+    known = .false.
+    if (present(held)) known = held
+    if (.not. known) known = workspace_holds(model, HOLDS_EOM, t, q, v, vdot, lambda)
+    if (.not. known) call eom_residual(model, t, q, v, vdot, lambda, scratch)
+    if (.not. model%ws%linearised) then
+      do i = 1, size(model%loads)
+        call model%loads(i)%term%linearise(model%chain, model%st, model%fs, q, v)
+      end do
+      if (model%nc > 0) call model%support_b%linearise(model%chain, model%st)
+      if (model%fs%rotating .and. .not. model%fs%body_couples) then
+        call linearise_inertia(model%chain, model%st, model%lin_inertia, model%fs%omega, model%fs%omega_dot)
+      else
+        call linearise_inertia(model%chain, model%st, model%lin_inertia)
+      end if
+      model%ws%linearised = .true.
+    end if
+  end subroutine tangent_base_point
+
   !> First-order change of eom_residual's residual for the change (dq, dv, dvdot, dlambda) of its
   !> arguments, O(n): the tangent of the kinematics, of every load, of clamp B's wrench and of
   !> the Newton-Euler pass, about eom_residual's pass at (t, q, v, vdot, lambda): evaluated
@@ -305,25 +339,7 @@ contains
     logical, intent(in), optional :: held
     real(dp) :: f_b(3), m_b(3), df_b(3), dm_b(3)
     integer :: i
-    logical :: known
-    known = .false.
-    if (present(held)) known = held
-    if (.not. known) known = workspace_holds(model, HOLDS_EOM, t, q, v, vdot, lambda)
-    if (.not. known) then
-      call eom_residual(model, t, q, v, vdot, lambda, dres)   ! the base point (dres: scratch)
-    end if
-    if (.not. model%ws%linearised) then       ! once per state, for all the columns taken there
-      do i = 1, size(model%loads)
-        call model%loads(i)%term%linearise(model%chain, model%st, model%fs, q, v)
-      end do
-      if (model%nc > 0) call model%support_b%linearise(model%chain, model%st)
-      if (model%fs%rotating .and. .not. model%fs%body_couples) then
-        call linearise_inertia(model%chain, model%st, model%lin_inertia, model%fs%omega, model%fs%omega_dot)
-      else
-        call linearise_inertia(model%chain, model%st, model%lin_inertia)
-      end if
-      model%ws%linearised = .true.
-    end if
+    call tangent_base_point(model, t, q, v, vdot, lambda, held)
     call positions_tangent(model%chain, model%st, dq, first, model%dst)
     call motion_tangent(model%chain, model%seed, model%st, v, vdot, dv, dvdot, model%dst)
     model%dforce = 0.0_dp

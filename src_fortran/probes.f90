@@ -13,7 +13,8 @@ module rotorcable_probes
   use rotorcable_mass_matrix, only: mass_matrix_jourdain
   use rotorcable_dae_integrator, only: integrator_settings, settings_from_flat, solver_stats, consistent_start, &
                                        integrate
-  use rotorcable_ggl_residual, only: ggl_residual_dense, ggl_jacobian_dense, ggl_residual_tangent
+  use rotorcable_ggl_residual, only: ggl_residual_dense, ggl_jacobian_dense, ggl_residual_tangent, &
+                                     ggl_residual_tangent_columns
   use rotorcable_ggl_linear_solver, only: ggl_block_solver, block_factorise, block_solve
   use rotorcable_chain_linear_solver, only: ggl_chain_solver, chain_solver_create, chain_factorise, chain_solve, &
                                             chain_iteration_matrix
@@ -26,7 +27,8 @@ module rotorcable_probes
   private
   public :: rc_probe_evaluate, rc_probe_consistent_start, rc_probe_ggl_residual, rc_probe_iteration_matrix, &
             rc_probe_time_kernels, rc_probe_integrate, rc_probe_rank_margin, rc_probe_chain_solver, &
-            rc_probe_residual_tangent, rc_probe_articulated_solve, rc_probe_parameter_partial
+            rc_probe_residual_tangent, rc_probe_residual_tangent_columns, rc_probe_articulated_solve, &
+            rc_probe_parameter_partial
 
 contains
 
@@ -216,6 +218,29 @@ contains
     end if
     call to_status(error, stat, msg)
   end subroutine rc_probe_residual_tangent
+
+  !> The same for m directions at once (ggl_residual_tangent_columns, the sensitivity
+  !> residual's path): column c must be rc_probe_residual_tangent of column c, bit for bit.
+  subroutine rc_probe_residual_tangent_columns(handle, t, n, y, yd, m, dy, dyd, dr, stat, msg)
+    integer(c_int), intent(in) :: handle          !< model handle
+    real(c_double), intent(in) :: t               !< time [s]
+    integer(c_int), intent(in) :: n               !< GGL unknowns 2 nq + 2 nc
+    real(c_double), intent(in) :: y(n), yd(n)     !< state
+    integer(c_int), intent(in) :: m               !< directions
+    real(c_double), intent(in) :: dy(n, m), dyd(n, m)  !< the directions
+    real(c_double), intent(out) :: dr(n, m)       !< changes of the residual
+    integer(c_int), intent(out) :: stat           !< 0 = ok
+    character(len=1024), intent(out) :: msg       !< why not
+    type(model_type), pointer :: model
+    type(error_type) :: error
+    dr = 0.0_dp
+    model => model_of(handle, error)
+    if (error%code == 0) then
+      if (n /= 2*model%nq + 2*model%nc) call fatal_error(error, 'n must be 2 nq + 2 nc')
+    end if
+    if (error%code == 0) call ggl_residual_tangent_columns(model, t, y, yd, dy, dyd, dr)
+    call to_status(error, stat, msg)
+  end subroutine rc_probe_residual_tangent_columns
 
   !> (M(q) + diag(armature))^-1 tau by the articulated-body factorisation, at the frames of q at t.
   subroutine rc_probe_articulated_solve(handle, t, nq, q, armature, tau, x, stat, msg)

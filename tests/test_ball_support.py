@@ -125,6 +125,18 @@ def test_ball_tangents_match_central_differences(tmp_path):
     assert np.abs(ja - jc).max() <= 1.0e-8 * np.abs(jc).max()
 
 
+def test_ball_tangent_columns_are_the_single_column_sweeps_bit_for_bit(tmp_path):
+    """The sensitivity residual's block path with the ball's rows (no moment rows, a 3-row
+    wrench): every column the same bits as the single-column sweep (as
+    tests/test_analytic_jacobian.py checks for every deck), 6 columns (a block and a padded one)."""
+    m = pydriver.Model.from_deck(ball_deck(tmp_path, "dynamic")[0])
+    t, y, yd = _random_state(m, 3)
+    rng = np.random.default_rng(4)
+    dy, dyd = rng.standard_normal((len(y), 6)), rng.standard_normal((len(y), 6))
+    single = np.column_stack([m.core.residual_tangent(y, yd, dy[:, k], dyd[:, k], t=t) for k in range(6)])
+    assert np.array_equal(m.core.residual_tangent_columns(y, yd, dy, dyd, t=t), single)
+
+
 def test_a_swing_held_by_the_ball_keeps_its_energy(tmp_path):
     """Dampers off, released from the projected start shape: the ball does no work on the
     chain (its point is fixed), so kinetic + gravity + spring energy stays constant.  As in
