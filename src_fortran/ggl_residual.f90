@@ -183,7 +183,7 @@ contains
   !> The chain's kinematics and Newton-Euler tangents run over blocks of COLUMN_BLOCK columns
   !> (rotorcable_chain_tangent_columns: each body's state read once a block, the columns'
   !> arithmetic vectorised); the loads' and the support's tangents, a few flops a body, column
-  !> by column on model%dst.
+  !> by column on model%dst.  A block of one or two columns goes column by column instead.
   subroutine ggl_residual_tangent_columns(model, t, y, yd, dy, dyd, dr)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t                 !< time [s]
@@ -200,6 +200,14 @@ contains
     associate (tc => model%dst_columns)
       do b = 1, m, COLUMN_BLOCK
         width = min(COLUMN_BLOCK, m - b + 1)
+        if (width <= 2) then
+          ! One or two columns left: a block would spend half or more of its lanes on padding,
+          ! so the single-column sweep is cheaper (the same bits either way).
+          do k = b, m
+            call ggl_residual_tangent(model, t, y, yd, dy(:, k), dyd(:, k), 1, dr(:, k), held=.true.)
+          end do
+          exit
+        end if
         ! The block's directions, column first (zero columns pad the last block).
         if (width < COLUMN_BLOCK) then
           tc%dq = 0.0_dp; tc%dv = 0.0_dp; tc%dvdot = 0.0_dp

@@ -103,13 +103,13 @@ def test_tangent_columns_are_the_single_column_sweeps_bit_for_bit(stem):
     """The sensitivity residual's path (``ggl_residual_tangent_columns``: the chain's kinematics
     and Newton-Euler tangents over blocks of 4 columns, vectorised across them) gives every
     column the same bits as the single-column sweep: each column's arithmetic is the same terms
-    in the same order.  Exact equality, no tolerance: 1, 3, 4, 5 and 9 columns (a partial
-    block, one block, a block and a padded one), and a second call at the same point (the
-    workspace then holds it)."""
+    in the same order.  Exact equality, no tolerance: 1 to 6 and 9 columns (one or two columns
+    go column by column, three a padded block, then whole blocks and the rest), and a second
+    call at the same point (the workspace then holds it)."""
     m = pydriver.Model.from_deck(INPUTS / f"{stem}.nml")
     t, y, yd = _random_state(m, 7)
     rng = np.random.default_rng(8)
-    for width in (1, 3, 4, 5, 9):
+    for width in (1, 2, 3, 4, 5, 6, 9):
         dy = rng.standard_normal((len(y), width))
         dyd = rng.standard_normal((len(y), width))
         together = m.core.residual_tangent_columns(y, yd, dy, dyd, t=t)
