@@ -184,16 +184,18 @@ contains
   !> (rotorcable_chain_tangent_columns: each body's state read once a block, the columns'
   !> arithmetic vectorised); the loads' and the support's tangents, a few flops a body, column
   !> by column on model%dst.  A block of one or two columns goes column by column instead.
-  subroutine ggl_residual_tangent_columns(model, t, y, yd, dy, dyd, dr)
+  subroutine ggl_residual_tangent_columns(model, t, y, yd, dy, dyd, dr, held)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t                 !< time [s]
     real(dp), intent(in) :: y(:), yd(:)       !< unknowns and their derivatives
     real(dp), intent(in) :: dy(:, :), dyd(:, :)  !< (n, m) their changes
     real(dp), intent(out) :: dr(:, :)         !< (n, m) changes of the residual
+    !> the caller has just evaluated the base point on this model (ggl_residual_tangent's held)
+    logical, intent(in), optional :: held
     real(dp) :: f_b(3), m_b(3), df_b(3), dm_b(3)
     integer :: nq, nc, n, m, c, b, i, k, width
     nq = model%nq; nc = model%nc; n = 2*nq + 2*nc; m = size(dy, 2)
-    call tangent_base_point(model, t, y(1:nq), y(nq + 1:2*nq), yd(nq + 1:2*nq), y(2*nq + 1:2*nq + nc))
+    call tangent_base_point(model, t, y(1:nq), y(nq + 1:2*nq), yd(nq + 1:2*nq), y(2*nq + 1:2*nq + nc), held)
     call columns_allocate(model%chain, model%dst_columns)
     f_b = 0.0_dp
     if (nc > 0) call model%support_b%wrench(model%chain, model%st, y(2*nq + 1:2*nq + nc), f_b, m_b)

@@ -35,7 +35,8 @@ module rotorcable_monodromy
   use rotorcable_errors, only: error_type, fatal_error, sundials_flag_error
   use rotorcable_model, only: model_type, solve_accelerations, constraint_jacobian, switch_times
   use rotorcable_linalg, only: null_space, solve_least_norm, dgetrf, lu_solve
-  use rotorcable_ggl_residual, only: ggl_residual_dense, ggl_residual_tangent, ggl_jacobian_dense
+  use rotorcable_ggl_residual, only: ggl_residual_dense, ggl_residual_tangent, ggl_residual_tangent_columns, &
+                                     ggl_jacobian_dense
   use rotorcable_ida_binding, only: SUNContext_Create, SUNContext_Free, N_VNew_Serial, N_VDestroy, &
                                     N_VGetArrayPointer, IDACreate, IDAInit, IDASVtolerances, IDASetUserData, &
                                     IDASetErrHandlerFn, IDASetId, IDASetSuppressAlg, IDASetMaxNumSteps, &
@@ -255,8 +256,8 @@ contains
     real(c_double), value :: t
     type(c_ptr), value :: yy, yp, rr, udata
     type(tangent_data), pointer :: td
-    real(c_double), pointer :: y(:), yd(:), r(:)
-    integer :: n, k, big
+    real(c_double), pointer :: y(:), yd(:), r(:), ys(:, :), yds(:, :), rs(:, :)
+    integer :: n, big
     call c_f_pointer(udata, td)
     n = 2*td%nq + 2*td%nc; big = n*(td%ns + 1)
     call c_f_pointer(N_VGetArrayPointer(yy), y, [big])
@@ -264,10 +265,12 @@ contains
     call c_f_pointer(N_VGetArrayPointer(rr), r, [big])
     ! The state's residual first: the tangents reuse its kinematics, loads and wrenches.
     call ggl_residual_dense(td%model, t, y(1:n), yd(1:n), r(1:n))
-    do k = 1, td%ns                           ! all at the point just evaluated (held)
-      call ggl_residual_tangent(td%model, t, y(1:n), yd(1:n), y(k*n + 1:(k + 1)*n), yd(k*n + 1:(k + 1)*n), 1, &
-                                r(k*n + 1:(k + 1)*n), held=.true.)
-    end do
+    ! All the columns at the point just evaluated (held), together (ggl_residual_tangent_columns:
+    ! the same bits as column by column).
+    ys(1:n, 1:td%ns) => y(n + 1:big)
+    yds(1:n, 1:td%ns) => yd(n + 1:big)
+    rs(1:n, 1:td%ns) => r(n + 1:big)
+    call ggl_residual_tangent_columns(td%model, t, y(1:n), yd(1:n), ys, yds, rs, held=.true.)
     ! The iterate of this residual is where a factorisation that follows is taken.
     td%t = t; td%y = y(1:n); td%yd = yd(1:n)
     td%s = reshape(y(n + 1:big), [n, td%ns]); td%sd = reshape(yd(n + 1:big), [n, td%ns])
@@ -300,7 +303,7 @@ contains
     type(sun_linear_solver), pointer :: wrapper
     type(tangent_data), pointer :: td
     real(c_double), pointer :: xv(:), bv(:), dy(:)
-    real(dp), allocatable :: yp(:), ydp(:), r0(:), rk(:)
+    real(dp), allocatable :: yp(:), ydp(:), r0(:), rk(:, :)
     real(dp) :: dnorm, eps
     real(c_double) :: cj
     integer(c_long) :: steps, fails
@@ -335,12 +338,12 @@ contains
       ! C_k dy by a forward difference along (dy, cj dy), step sqrt(eps) relative to y: its
       ! O(sqrt(eps)) error only slows Newton's convergence by as much.
       eps = sqrt(epsilon(1.0_dp))*(1.0_dp + norm2(td%y))/dnorm
-      allocate (yp(n), ydp(n), r0(n), rk(n))
+      allocate (yp(n), ydp(n), r0(n), rk(n, td%ns))
       yp = td%y + eps*dy; ydp = td%yd + eps*cj*dy
       call ggl_residual_dense(td%model, td%t, yp, ydp, r0)
+      call ggl_residual_tangent_columns(td%model, td%t, yp, ydp, td%s, td%sd, rk, held=.true.)
       do k = 1, td%ns
-        call ggl_residual_tangent(td%model, td%t, yp, ydp, td%s(:, k), td%sd(:, k), 1, rk, held=.true.)
-        xv(k*n + 1:(k + 1)*n) = xv(k*n + 1:(k + 1)*n) - (rk - td%rs(:, k))/eps
+        xv(k*n + 1:(k + 1)*n) = xv(k*n + 1:(k + 1)*n) - (rk(:, k) - td%rs(:, k))/eps
       end do
       ! The model's kinematics and loads back at the iterate (ggl_residual_tangent reads them).
       call ggl_residual_dense(td%model, td%t, td%y, td%yd, r0)
