@@ -18,7 +18,7 @@ module rotorcable_chain_tangent_columns
   use rotorcable_kinematics, only: chain_state, motion_seed
   use rotorcable_kinematics_tangent, only: chain_tangent
   use rotorcable_joint, only: MAX_JOINT_DOF, JOINT_ZY, JOINT_XY, JOINT_XYZ
-  use rotorcable_inverse_dynamics_tangent, only: inertia_linearisation
+  use rotorcable_inverse_dynamics_tangent, only: inertia_linearisation, frame_arguments
   implicit none
   private
   public :: tangent_columns, columns_allocate, positions_tangent_columns, motion_tangent_columns, &
@@ -296,11 +296,7 @@ contains
     real(dp), intent(in), optional :: frame_omega_dot(3)  !< as in inverse_dynamics
     real(dp) :: fo(3), fod(3)
     logical :: relative
-    relative = present(frame_omega) .and. present(frame_omega_dot)
-    fo = 0.0_dp; fod = 0.0_dp
-    if (relative) then
-      fo = frame_omega; fod = frame_omega_dot
-    end if
+    call frame_arguments(relative, fo, fod, frame_omega, frame_omega_dot)
     call newton_euler_pass(chain%n_bodies, chain%n_coords, chain%n_joint_coords, chain%first_coord, chain%mass, &
                            st%joint_point, st%cm, st%axes, st%omega, st%alpha, st%acc_cm, st%joint_force, &
                            st%joint_moment, lin%inertia, lin%iw, lin%ia, tc%dtheta, tc%djoint_point, tc%dcm, tc%daxes, &

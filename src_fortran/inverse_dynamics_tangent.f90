@@ -22,7 +22,7 @@ module rotorcable_inverse_dynamics_tangent
   use rotorcable_joint, only: MAX_JOINT_DOF
   implicit none
   private
-  public :: inverse_dynamics_tangent, inertia_linearisation, linearise_inertia
+  public :: inverse_dynamics_tangent, inertia_linearisation, linearise_inertia, frame_arguments
 
   !> The pass's state-only factors at one state (linearise_inertia).
   type :: inertia_linearisation
@@ -94,17 +94,27 @@ contains
     real(dp), intent(in), optional :: frame_omega_dot(3)  !< as in inverse_dynamics
     real(dp) :: fo(3), fod(3)
     logical :: relative
-    relative = present(frame_omega) .and. present(frame_omega_dot)
-    fo = 0.0_dp; fod = 0.0_dp
-    if (relative) then
-      fo = frame_omega; fod = frame_omega_dot
-    end if
+    call frame_arguments(relative, fo, fod, frame_omega, frame_omega_dot)
     call tangent_pass(chain%n_bodies, size(dtau), dst%first, chain%n_joint_coords, chain%first_coord, chain%mass, &
                       st%joint_point, st%cm, st%axes, st%omega, st%alpha, st%acc_cm, st%joint_force, st%joint_moment, &
                       lin%inertia, lin%iw, lin%ia, dst%dtheta, dst%djoint_point, dst%dcm, dst%daxes, dst%domega, &
                       dst%dalpha, dst%dacc_cm, force, dforce, dmoment, tip_force, dtip_force, dtip_moment, relative, &
                       fo, fod, dtau)
   end subroutine inverse_dynamics_tangent
+
+  !> The optional frame arguments of inverse_dynamics as values for a pass: relative when both
+  !> are given, else zeros that the pass does not read.
+  pure subroutine frame_arguments(relative, fo, fod, frame_omega, frame_omega_dot)
+    logical, intent(out) :: relative          !< both given
+    real(dp), intent(out) :: fo(3), fod(3)    !< their values, or zero
+    real(dp), intent(in), optional :: frame_omega(3)      !< as in inverse_dynamics
+    real(dp), intent(in), optional :: frame_omega_dot(3)  !< as in inverse_dynamics
+    relative = present(frame_omega) .and. present(frame_omega_dot)
+    fo = 0.0_dp; fod = 0.0_dp
+    if (relative) then
+      fo = frame_omega; fod = frame_omega_dot
+    end if
+  end subroutine frame_arguments
 
   !> inverse_dynamics_tangent's pass on explicit-shape arrays.  Why a second routine: it runs
   !> once per body and column, and through the derived types' allocatable components every
