@@ -227,6 +227,41 @@ def bare_name(cell: str) -> str:
     return m.group(1) if m else cell.strip()
 
 
+#: Keys of summary.json described here (the rest are named by their unit suffix and are described in
+#: README.md): (key, unit, meaning).  A dotted key is one inside a group.
+SUMMARY_KEYS: tuple[tuple[str, str, str], ...] = (
+    ("equilibrium_stability.verdict", "-",
+     "static and modal runs: 'stable', 'neutral' (a mode without stiffness: the equilibrium is not unique along "
+     "it) or, refused as an error, 'unstable'; every analysis that starts from an equilibrium (design, dynamic "
+     "from rest, flight) refuses an unstable one too (docs/model.md, \"Which equilibrium\")"),
+    ("equilibrium_stability.smallest_stiffness_eigenvalue_Nm_per_rad", "Nm/rad",
+     "smallest eigenvalue of the constrained tangent stiffness sym(N^T K N), N an orthonormal basis of the "
+     "constraints' null space"),
+    ("equilibrium_stability.lowest_omega_squared_per_s2", "1/s^2",
+     "smallest w^2 of sym(K_r) phi = w^2 M_r phi (0 within its round-off floor; negative: unstable)"),
+    ("equilibrium_stability.zero_stiffness_modes", "-", "how many modes have no stiffness"),
+    ("equilibrium_stability.largest_growth_rate_per_s", "1/s",
+     "largest real part of the damped linear system's eigenvalues (positive beyond round-off: divergence or "
+     "flutter of the equilibrium)"),
+    ("equilibrium_stability.distance_from_start.largest_point_displacement_m", "m",
+     "largest distance a joint point moved from the start shape closed onto the supports (also as a share of "
+     "the cable's length; above 0.25 a warning)"),
+    ("equilibrium_stability.distance_from_start.largest_angle_change_deg", "deg",
+     "largest change of a joint coordinate from that start"),
+    ("zero_stiffness_modes", "-", "modal runs: the modes set to 0 Hz (numbers, from 1)"),
+    ("integration_error.method", "-",
+     "dynamic and flight runs: how the run estimated its own integration error (the whole run, or a flight's "
+     "last revolution, again at rtol/100), or 'not estimated' with the reason in `why`"),
+    ("integration_error.relative_change.{family}", "-",
+     "per family (support reactions, joint loads, jacket strain): the largest change of a sampled value in the "
+     "check pass over the family's largest value; the run's error to ~1 %; above 1e-3 a warning"),
+    ("integration_error.shortest_life_relative_change", "-",
+     "flight runs with &fatigue: relative change of the shortest fatigue life in the check pass (above 1e-2 a "
+     "warning)"),
+    ("integration_error.check_rtol", "-", "the check pass's rtol (its atol in check_atol)"),
+)
+
+
 def outputs_markdown() -> str:
     """``docs/outputs.md``: every output file and its columns (generated)."""
     lines = ["# Output files", "",
@@ -258,6 +293,9 @@ def outputs_markdown() -> str:
             if f in c.files:
                 lines.append(f"| `{c.pattern}` | {c.unit} | {c.meaning} |")
         lines.append("")
+    lines += ["## `summary.json` (selected keys)", "", "| key | unit | meaning |", "|---|---|---|"]
+    lines += [f"| `{key}` | {unit} | {meaning} |" for key, unit, meaning in SUMMARY_KEYS]
+    lines.append("")
     return "\n".join(lines)
 
 

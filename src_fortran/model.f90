@@ -662,13 +662,17 @@ contains
     end do
   end subroutine switch_times
 
-  !> Whether every load has a potential (statics may then use the energy as merit function).
-  logical function all_conservative(model)
-    type(model_type), intent(in) :: model     !< model
+  !> Whether every load's forces at rest at time t are those of its potential (statics may then
+  !> use the energy as merit function): each load's conservative_at_rest at the frame's and the
+  !> base's motion at t.
+  logical function all_conservative(model, t)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time of the equilibrium [s]
     integer :: i
+    call model_prepare(model, t)
     all_conservative = .true.
     do i = 1, size(model%loads)
-      all_conservative = all_conservative .and. model%loads(i)%term%has_potential()
+      all_conservative = all_conservative .and. model%loads(i)%term%conservative_at_rest(model%fs, model%seed)
     end do
   end function all_conservative
 

@@ -203,9 +203,11 @@ contains
     nq = model%nq; nc = model%nc; nf = nq - nc
     zero = 0.0_dp
     t = settings%t
-    ! With a non-conservative load (drag) the potential energy is no merit function and the
-    ! tangent stiffness is not symmetric: Levenberg-Marquardt on the reduced gradient instead.
-    conservative = all_conservative(model)
+    ! With a load that is non-conservative at rest (drag in a stream or a turning frame) the
+    ! potential energy is no merit function and the tangent stiffness is not symmetric:
+    ! Levenberg-Marquardt on the reduced gradient instead.  A load that vanishes at rest (drag in
+    ! still air) keeps the energy's path, bit for bit the run without it (issue 35).
+    conservative = all_conservative(model, t)
     if (project_positions(model, t, q) > 1.0e-9_dp) then
       call closure_failure(model, t, q, error)
       return

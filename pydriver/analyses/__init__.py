@@ -76,10 +76,15 @@ def run_single(model, run_dir=None):
     if analysis == "modal":
         return modal.modal_analysis(model)
     if analysis == "dynamic":
-        return dynamics.dynamic_analysis(model, run_dir)
+        from pydriver.analyses.integration_error import dynamic_check
+        result = dynamics.dynamic_analysis(model, run_dir)
+        dynamic_check(model, result)
+        return result
     if analysis == "flight":
         from pydriver.analyses.hover_modes import add_hover_modes
+        from pydriver.analyses.integration_error import flight_check
         result = flight.flight_analysis(model, run_dir)
+        flight_check(model, result)
         add_hover_modes(model, result)
         if "monodromy" in result.extra:
             from pydriver.analyses.floquet import add_floquet

@@ -11,7 +11,7 @@ from pydriver.analyses.clamp_reach import reach_error
 from pydriver.analyses.common import RAD2DEG, REACTION_NAMES, base_summary, joint_columns, reactions, \
     straight_zy_warnings
 from pydriver.analyses.singularity import ClosestApproach
-from pydriver.analyses.statics import equilibrium
+from pydriver.analyses.statics import equilibrium, has_pulse
 from pydriver.errors import DeckError, RunError
 from pydriver.output import CSV_MAX_VALUES, TimeseriesWriter
 from pydriver.progress import report
@@ -296,7 +296,7 @@ def _earlier_columns(model, restart, names) -> dict:
 def _decay(model, result: Result):
     """Decay evaluation of a pulsed run (thesis section 5.4): the pulsed body's z."""
     body = model.deck["loads.pulse_body"]
-    if body <= 0 or result.timeseries is None:
+    if not has_pulse(model) or result.timeseries is None:
         return
     from pydriver.signal import decay_analysis
     signal = f"z{body}"

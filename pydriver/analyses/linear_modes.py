@@ -28,11 +28,25 @@ import scipy.linalg
 
 from pydriver.errors import RunError
 
-#: K_r eigenvalues (w^2) below this fraction of the largest are zero stiffness (a coordinate
-#: without a spring and without a load across it: a free pivot, a twist without a twist spring);
-#: only a clearly negative one means an unstable equilibrium.  1e-9: round-off of the tangent
-#: stiffness (analytic, ~1e-12 of its largest entry; tests/test_modal_matrices.py) with margin.
-ZERO_STIFFNESS_REL = 1.0e-9
+#: The round-off of the tangent stiffness, as a multiple of eps times its largest entry: the
+#: analytic tangent (src_fortran/kinematics_tangent.f90 ...) sums terms of at most the size of its
+#: largest entry with a few hundred operations each; tests/test_modal_matrices.py finds it within
+#: ~1e-12 of the largest entry against differences (whose own error dominates there).
+STIFFNESS_ROUNDOFF_EPS = 1.0e4
+
+
+def stiffness_floor(k: np.ndarray, shapes: np.ndarray) -> np.ndarray:
+    """Per shape x (a column of ``shapes``, M_r-orthonormal), how large x^T K x can come out of
+    round-off alone: |x^T dK x| <= |dK| |x|^2 with |dK| = STIFFNESS_ROUNDOFF_EPS eps max|K|.
+
+    This is the zero-stiffness test (issue 35): a mode's stiffness follows its own size, not
+    the stiffest mode's.  The earlier rule, w^2 below 1e-9 of the largest w^2, set a swing of
+    the whole cable on a soft spring (w = 5e-3 rad/s, c = 1e-6 Nm/rad) to 0 Hz because a 1.7 kHz
+    twist mode sat in the same spectrum; an exactly zero stiffness (a free pivot) comes out
+    ~1e-20 below this floor and a spring of 1e-10 Nm/rad 1e5 above it (measured on the
+    cantilever and three-body decks)."""
+    scale = STIFFNESS_ROUNDOFF_EPS * np.finfo(float).eps * float(np.max(np.abs(k), initial=0.0))
+    return scale * np.sum(np.abs(shapes) ** 2, axis=0)
 
 
 def mac(a: np.ndarray, b: np.ndarray, m_full: np.ndarray) -> np.ndarray:
@@ -58,36 +72,56 @@ def symmetric_modes(k_s: np.ndarray, m_r: np.ndarray) -> tuple[np.ndarray, np.nd
         raise RunError(f"modal analysis: generalized symmetric eigenproblem failed (dsygv: {err})") from err
 
 
-def undamped_modes(mats: dict) -> tuple[np.ndarray, np.ndarray]:
-    """w^2 (ascending; zero-stiffness ones set to 0) and the M_r-orthonormal shapes Z (nf, nf)
-    of sym(K_r) phi = w^2 M_r phi.
+def stiffness_spectrum(mats: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """w^2 (ascending), the M_r-orthonormal shapes Z (nf, nf) of sym(K_r) phi = w^2 M_r phi and
+    each one's round-off floor (:func:`stiffness_floor`); nothing is judged or zeroed here.
 
     The symmetric part only: the circulatory skew part of K_r (the drag of the still air through
     which a turning cable moves) enters the damped system, as the gyroscopic part of D_r does.
-    A clearly negative w^2 (below -ZERO_STIFFNESS_REL of the largest |w^2|) is an unstable
-    equilibrium: RunError."""
+    dsygv's eigenvalues carry an absolute error of ~eps times the largest one, so a small one
+    (below sqrt(eps) of the largest) is taken again as its Rayleigh quotient phi^T sym(K_r) phi,
+    which is as accurate as the entries of K_r allow (the shape's error enters squared)."""
     _check_finite(mats)
-    w2, z = symmetric_modes(0.5 * (mats["K_r"] + mats["K_r"].T), mats["M_r"])
-    w_zero = ZERO_STIFFNESS_REL * max(float(np.max(np.abs(w2), initial=0.0)), np.finfo(float).tiny)
-    if w2.size and w2[0] < -w_zero:
-        raise RunError("modal analysis: the equilibrium is unstable (negative stiffness eigenvalue)")
-    return np.where(w2 < w_zero, 0.0, w2), z
+    k_s = 0.5 * (mats["K_r"] + mats["K_r"].T)
+    w2, z = symmetric_modes(k_s, mats["M_r"])
+    small = np.abs(w2) <= np.sqrt(np.finfo(float).eps) * float(np.max(np.abs(w2), initial=0.0))
+    if np.any(small):
+        w2 = w2.copy()
+        w2[small] = np.einsum("ij,ij->j", z[:, small], k_s @ z[:, small])
+        order = np.argsort(w2, kind="stable")
+        w2, z = w2[order], z[:, order]
+    return w2, z, stiffness_floor(k_s, z)
 
 
-def zero_stiffness_basis(m_r: np.ndarray, k_r: np.ndarray) -> np.ndarray:
-    """An M_r-orthonormal basis (nf, k) of the coordinates K_r does not resist (k may be 0).
+def undamped_modes(mats: dict) -> tuple[np.ndarray, np.ndarray]:
+    """w^2 (ascending; zero-stiffness ones set to 0) and the M_r-orthonormal shapes Z (nf, nf)
+    of sym(K_r) phi = w^2 M_r phi (:func:`stiffness_spectrum`).  A w^2 within its round-off floor
+    of 0 is zero stiffness (0); one below minus that floor is an unstable equilibrium: RunError."""
+    w2, z, floor = stiffness_spectrum(mats)
+    if w2.size and np.any(w2 < -floor):
+        worst = int(np.argmin(w2 + floor))
+        raise RunError(f"modal analysis: the equilibrium is unstable (negative stiffness: w^2 = {w2[worst]:.3e} "
+                       f"1/s^2 below its round-off floor {floor[worst]:.1e})")
+    return np.where(np.abs(w2) <= floor, 0.0, w2), z
+
+
+def zero_stiffness_basis(m_r: np.ndarray, k_r: np.ndarray, count: int) -> np.ndarray:
+    """An M_r-orthonormal basis (nf, count) of the coordinates K_r does not resist: the ``count``
+    zero-stiffness modes of :func:`undamped_modes` (count may be 0).
 
     With M_r = L L^T, K_r x = 0 is (L^-1 K_r L^-T) y = 0 for y = L^T x; the singular vectors of
-    that matrix with (relatively) zero singular values are orthonormal, so x = L^-T y is
-    M_r-orthonormal.  The SVD needs no symmetry (a follower load makes K_r unsymmetric)."""
+    that matrix with the smallest singular values are orthonormal, so x = L^-T y is
+    M_r-orthonormal.  The SVD needs no symmetry (a follower load makes K_r unsymmetric); how many
+    are zero is the undamped modes' decision, so the damped and the undamped modes agree on it."""
+    if count == 0:
+        return np.zeros((m_r.shape[0], 0))
     chol = np.linalg.cholesky(m_r)
     scaled = np.linalg.solve(chol, np.linalg.solve(chol, k_r.T).T)
-    _, sing, vh = np.linalg.svd(scaled)
-    null = sing <= ZERO_STIFFNESS_REL * np.max(sing, initial=0.0)
-    return np.linalg.solve(chol.T, vh[null].conj().T)
+    _, _, vh = np.linalg.svd(scaled)
+    return np.linalg.solve(chol.T, vh[-count:].conj().T)
 
 
-def complex_modes(mats: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def complex_modes(mats: dict, n_zero: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Eigenvalues s and shapes in q of the linearised system, lowest first.
 
     First the zero-stiffness modes (s = 0, an M_r-orthonormal basis of K_r's null space: the
@@ -103,8 +137,10 @@ def complex_modes(mats: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nd
     a = np.block([[np.zeros((nf, nf)), np.eye(nf)], [-minv @ k, -minv @ d]])
     s, v = np.linalg.eig(a)
     v = v.astype(complex)                         # all-real spectra come back as real arrays
-    null = zero_stiffness_basis(m, k)
-    n_zero = null.shape[1]
+    if n_zero is None:
+        w2, _, floor = stiffness_spectrum(mats)
+        n_zero = int(np.count_nonzero(np.abs(w2) <= floor))
+    null = zero_stiffness_basis(m, k, n_zero)
     keep = np.ones(len(s), bool)
     if n_zero:
         # The null space has between n_zero (damped) and 2 n_zero (undamped: Jordan pairs) roots
@@ -141,7 +177,7 @@ def modal_modes(mats: dict) -> dict:
     """
     w2, z = undamped_modes(mats)
     try:
-        sv, damped, oscillating, zero = complex_modes(mats)
+        sv, damped, oscillating, zero = complex_modes(mats, int(np.count_nonzero(w2 == 0.0)))
     except np.linalg.LinAlgError as err:
         raise RunError(f"modal analysis: the linearised equations cannot be solved for their damped modes "
                        f"({err}: the reduced mass matrix is singular)") from err

@@ -10,13 +10,17 @@ import numpy as np
 
 from pydriver.analyses.common import base_summary, equilibrium_table, reactions, straight_zy_warnings
 from pydriver.analyses.singularity import equilibrium_report
+from pydriver.analyses.stability import (distance_from_start, equilibrium_stability, far_warning, require_stable,
+                                         stability_summary)
 from pydriver.errors import RunError
 from pydriver.run_result import Result
 
 
 def has_pulse(model) -> bool:
-    """Whether the deck puts a force pulse on the model (``&loads pulse_body``)."""
-    return model.deck["loads.pulse_body"] > 0
+    """Whether the deck puts a force pulse on the model (``&loads pulse_body``, a nonzero
+    ``pulse_force``: a pulse of zero force is no load, issue 35, and the core gives it no
+    switch times either)."""
+    return model.deck["loads.pulse_body"] > 0 and bool(np.any(np.asarray(model.deck["loads.pulse_force"]) != 0.0))
 
 
 @contextlib.contextmanager
@@ -61,7 +65,9 @@ def equilibrium(model, t: float = 0.0):
 
     Newton on the constraint manifold (``&solver static_method = 'newton'``) or damped dynamic
     settling, the thesis's route (section 5.3, ``'settle'``).  A force pulse is a dynamic
-    excitation, not a steady load: the equilibrium is that of the model without it.
+    excitation, not a steady load: the equilibrium is that of the model without it.  An unstable
+    equilibrium is a RunError saying what to try (:mod:`pydriver.analyses.stability`), so every
+    analysis that starts from one inherits the check.
 
     Returns
     -------
@@ -70,21 +76,28 @@ def equilibrium(model, t: float = 0.0):
     stats : dict
         Solver statistics.
     """
-    s = model.deck.values["solver"]
     with unforced(model):
-        if s["static_method"] == "newton":
-            return model.core.static(model.q0, t, s["newton_tol"], s["newton_max_iter"])
-        session = model.core.start(model.solver_settings(), t, model.q0, np.zeros_like(model.q0))
-        try:
-            q, v = session.advance([t + s["t_end"]])
-        finally:
-            session.close()
-        stats = dict(session.stats)
-        vmax = float(np.max(np.abs(v))) if v.size else 0.0
-        if vmax > s["settle_tol"]:
-            raise RunError(f"deck '{model.name}': dynamic settling: not at rest at t_end (max |qdot| = {vmax:.3e} "
-                           "rad/s > settle_tol); increase t_end")
-        sample = model.core.sample([t + s["t_end"]], q, np.zeros_like(q))
+        q, lam, stats = _solve(model, t)
+        require_stable(model, equilibrium_stability(model, q, lam, t), t)
+    return q, lam, stats
+
+
+def _solve(model, t: float):
+    """The equilibrium by the deck's static method (:func:`equilibrium`), not yet judged."""
+    s = model.deck.values["solver"]
+    if s["static_method"] == "newton":
+        return model.core.static(model.q0, t, s["newton_tol"], s["newton_max_iter"])
+    session = model.core.start(model.solver_settings(), t, model.q0, np.zeros_like(model.q0))
+    try:
+        q, v = session.advance([t + s["t_end"]])
+    finally:
+        session.close()
+    stats = dict(session.stats)
+    vmax = float(np.max(np.abs(v))) if v.size else 0.0
+    if vmax > s["settle_tol"]:
+        raise RunError(f"deck '{model.name}': dynamic settling: not at rest at t_end (max |qdot| = {vmax:.3e} "
+                       "rad/s > settle_tol); increase t_end")
+    sample = model.core.sample([t + s["t_end"]], q, np.zeros_like(q))
     return q[:, 0], sample["lambda"][0], stats
 
 
@@ -96,9 +109,11 @@ def static_analysis(model) -> Result:
         q, lam, stats = equilibrium(model)
         zero = np.zeros((model.nq, 1))
         sample = model.core.sample([0.0], q[:, None], zero)
+        stability, stability_warnings = stability_summary(model, q, lam)
     wall = time.perf_counter() - t0
     summary = base_summary(model, "static", wall)
-    summary.update(solver=stats, max_constraint_violation_m=float(sample["g_max"][0]),
+    summary.update(solver=stats, equilibrium_stability=stability,
+                   max_constraint_violation_m=float(sample["g_max"][0]),
                    reactions=reactions(sample["wrenches"][0], model.nc > 0),
                    tip_m=[float(x) for x in sample["joints"][:, -1, 0]],
                    energy_J={"kinetic": 0.0, "potential": float(sample["potential"][0])})
@@ -106,7 +121,7 @@ def static_analysis(model) -> Result:
     near, near_warnings = equilibrium_report(model, q)
     if near is not None:
         summary["cardan_singularity"] = near
-    warnings = notes + straight_zy_warnings(model, table["beta_deg"]) + near_warnings
+    warnings = notes + straight_zy_warnings(model, table["beta_deg"]) + near_warnings + stability_warnings
     if warnings:
         summary["warnings"] = warnings
     return Result(summary=summary, table=table, extra={"q": q, "lambda": lam})

@@ -12,7 +12,7 @@ module rotorcable_loads_drag
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type
   use rotorcable_chain, only: chain_type
-  use rotorcable_kinematics, only: chain_state
+  use rotorcable_kinematics, only: chain_state, motion_seed
   use rotorcable_kinematics_tangent, only: chain_tangent
   use rotorcable_rotations, only: cross
   use rotorcable_frame, only: frame_state
@@ -35,6 +35,7 @@ module rotorcable_loads_drag
     real(dp), allocatable :: normal_speed(:)  !< (n) |u_n| [m/s]
   contains
     procedure :: add_forces
+    procedure :: conservative_at_rest
     procedure :: linearise
     procedure :: add_force_tangent
   end type drag_load
@@ -69,6 +70,19 @@ contains
       force(:, j) = force(:, j) + self%cd_area(j)*norm2(u)*u
     end do
   end subroutine add_forces
+
+  !> At rest relative to the model frame every body moves with the frame and the base: in still
+  !> air (no stream), an inertial frame and a base at rest that is u = 0 on every body, so the
+  !> drag vanishes at rest whatever the shape (a potential of 0); so does a drag of zero C_d or
+  !> density.  In a turning frame or a stream it does not (the hover shape carries its drag).
+  pure logical function conservative_at_rest(self, fs, seed) result(yes)
+    class(drag_load), intent(in) :: self
+    type(frame_state), intent(in) :: fs       !< the model frame's motion at the equilibrium's time
+    type(motion_seed), intent(in) :: seed     !< the base's absolute motion at that time
+    yes = all(self%cd_area == 0.0_dp)
+    if (.not. yes) yes = all(self%stream == 0.0_dp) .and. .not. fs%rotating .and. all(seed%vel == 0.0_dp) &
+                         .and. all(seed%omega == 0.0_dp)
+  end function conservative_at_rest
 
   !> The tangent's state-only factors at the state (t, q, v) of st: each body's axis, air
   !> velocity and its normal part and size, formed once for all the columns taken there (a

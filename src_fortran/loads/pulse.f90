@@ -51,6 +51,9 @@ contains
       return
     end if
     load%label = 'pulse'
+    ! A pulse of zero force is no load (issue 35: a load that is zero changes nothing): no
+    ! switch times, conservative with potential 0.
+    load%conservative = .not. acts(load)
     allocate (slot%term, source=load)
   end subroutine new_pulse
 
@@ -70,7 +73,7 @@ contains
   pure subroutine switch_times(self, times)
     class(pulse_load), intent(in) :: self
     real(dp), allocatable, intent(out) :: times(:)
-    if (self%enabled) then
+    if (acts(self)) then
       times = [self%t_start, self%t_end]
     else
       allocate (times(0))
@@ -91,9 +94,15 @@ contains
       self%enabled = values(1) == 1.0_dp
       ! A pulse switched off is conservative with potential 0 (load_term's default), so that a
       ! model with its pulse off is, to the statics' merit function too, the model built without it.
-      self%conservative = .not. self%enabled
+      self%conservative = .not. acts(self)
     end if
   end subroutine set_parameter
+
+  !> Whether the pulse puts a force on the chain at all: switched on and of nonzero force.
+  pure logical function acts(self)
+    class(pulse_load), intent(in) :: self
+    acts = self%enabled .and. any(self%force /= 0.0_dp)
+  end function acts
 
   subroutine get_parameter(self, name, values, found)
     class(pulse_load), intent(in) :: self

@@ -13,7 +13,7 @@ module rotorcable_loads_type
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type
   use rotorcable_chain, only: chain_type
-  use rotorcable_kinematics, only: chain_state
+  use rotorcable_kinematics, only: chain_state, motion_seed
   use rotorcable_kinematics_tangent, only: chain_tangent
   use rotorcable_frame, only: frame_state
   implicit none
@@ -43,6 +43,14 @@ module rotorcable_loads_type
     procedure :: potential => no_potential
     !> Whether the load is conservative with the potential above (its `conservative` flag).
     procedure, non_overridable :: has_potential
+    !> Whether the load's forces at rest relative to the model frame (v = 0) are those of its
+    !> potential, for the frame's motion fs and the base's absolute motion seed at the time of
+    !> an equilibrium: what the static solver's merit function needs (rotorcable_statics).  By
+    !> default the `conservative` flag; a load that is not conservative in motion but vanishes
+    !> at rest (drag in still air, a pulse of zero force) says so, so that its presence does not
+    !> change the static solver's path (issue 35: still-air drag had sent the UH-60 part 2
+    !> equilibrium to another, unstable one).
+    procedure :: conservative_at_rest => potential_at_rest
     !> Times at which the load jumps (the integrator stops exactly there and restarts).
     procedure :: switch_times => no_switch_times
     !> Constant diagonal joint-space stiffness and damping contributed by the load.
@@ -88,6 +96,13 @@ contains
     class(load_term), intent(in) :: self      !< the load
     has_potential = self%conservative
   end function has_potential
+
+  pure logical function potential_at_rest(self, fs, seed) result(yes)
+    class(load_term), intent(in) :: self      !< the load
+    type(frame_state), intent(in) :: fs       !< the model frame's motion at the equilibrium's time
+    type(motion_seed), intent(in) :: seed     !< the base's absolute motion at that time
+    yes = self%conservative
+  end function potential_at_rest
 
   pure subroutine no_switch_times(self, times)
     class(load_term), intent(in) :: self      !< the load
