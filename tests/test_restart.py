@@ -1,16 +1,22 @@
-"""Restart (issue 22 item 5): a finished dynamic run continued from its checkpoint reproduces
-the uninterrupted run.  Both cut the integration at the same instants (&solver
+"""Restart (issue 22 item 5, issue 35): a finished dynamic run continued from its checkpoint
+reproduces the uninterrupted run.  Both cut the integration at the same instants (&solver
 checkpoint_interval: IDA starts afresh there from the state reached), so the continuation makes
-exactly the calls the uninterrupted run makes: equal to 1e-12 (the test's bound; bit for bit in
-practice, the written CSV round-trips exactly)."""
+exactly the calls the uninterrupted run makes: the same doubles, and the same bytes in the
+written time series, for decimal intervals and end times too (sample times are counted in whole
+steps of the decimal dt_out, pydriver/analyses/output_grid.py).  A continuation from any other
+instant says that it is not bit for bit.  Damaged or crafted restart directories:
+tests/test_restart_faults.py."""
 
 from __future__ import annotations
+
+from fractions import Fraction
 
 import numpy as np
 import pytest
 
 import pydriver
 from conftest import INPUTS
+from pydriver.analyses.output_grid import is_segment_start, output_grid, output_times
 from pydriver.study import override_deck
 
 DECAY = INPUTS / "uh60_part2_decay.nml"
@@ -74,3 +80,74 @@ def test_checkpoint_interval_is_checked(tmp_path, value, words):
     with pytest.raises(pydriver.DeckError) as exc:
         pydriver.run_deck(deck(tmp_path, "bad", "0.2", checkpoint_interval=value))
     assert (exc.value.group, exc.value.key) == ("solver", "checkpoint_interval") and words in str(exc.value)
+
+
+@pytest.mark.parametrize("interval,t_source,t_end", [("0.05", "0.15", "0.3"), ("0.05", "0.25", "0.3"),
+                                                     ("0.1", "0.3", "0.7"), ("0.1", "0.2", "0.3")])
+def test_decimal_intervals_continue_bit_for_bit(tmp_path, interval, t_source, t_end):
+    """Issue 35: with the samples at k * dt_out accumulated in binary, 3 * 0.05 s was
+    0.15000000000000002 and the continuation from t_end = 0.15 started IDA 2.8e-17 s away from
+    the uninterrupted run's cut: 2.5e-4 deg/s apart.  Now the written files are equal byte for
+    byte (exact: both runs make the same calls on the same doubles)."""
+    whole = tmp_path / "whole"
+    pydriver.run_deck(deck(tmp_path, "whole", t_end, checkpoint_interval=interval), out=whole)
+    first = tmp_path / "first"
+    pydriver.run_deck(deck(tmp_path, "part", t_source, checkpoint_interval=interval), out=first)
+    cont = tmp_path / "cont"
+    res = pydriver.run_deck(deck(tmp_path, "part", t_end, checkpoint_interval=interval), out=cont, restart=first)
+    assert (cont / "timeseries.csv").read_bytes() == (whole / "timeseries.csv").read_bytes()
+    assert res.summary["restarted_from"]["same_as_uninterrupted_run"] is True
+    assert not any("bit for bit" in w for w in res.summary.get("warnings", []))
+
+
+@pytest.mark.parametrize("interval,t_source", [("0.1", "0.17"), ("0", "0.2")])
+def test_a_continuation_off_the_interval_says_it_is_not_bit_for_bit(tmp_path, interval, t_source):
+    """From an instant where the uninterrupted run does not start IDA afresh, the continuation
+    restarts IDA's step history there: as close as the integration (rtol 1e-6: the centres of
+    mass within 1e-7 m, a thousandth of the pulse's 0.1 mm motion; 4e-11 m measured), and the
+    summary and a warning say it is not the same run bit for bit."""
+    whole = pydriver.run_deck(deck(tmp_path, "whole", "0.3", checkpoint_interval=interval))
+    first = tmp_path / "first"
+    pydriver.run_deck(deck(tmp_path, "part", t_source, checkpoint_interval=interval), out=first)
+    cont = pydriver.run_deck(deck(tmp_path, "part", "0.3", checkpoint_interval=interval), restart=first)
+    assert cont.summary["restarted_from"]["same_as_uninterrupted_run"] is False
+    assert any("not bit for bit" in w for w in cont.summary["warnings"])
+    a, b = whole.timeseries, cont.timeseries
+    assert np.array_equal(a["t"], b["t"])
+    positions = [k for k in a if k[0] in "xyz" and k[1:].isdigit()]
+    assert max(float(np.max(np.abs(a[k] - b[k]))) for k in positions) <= 1e-7
+
+
+DT_TEXTS = ["0.001", "0.0002", "0.05", "0.1", "0.3", "2.5e-5", "0.007", "1.0", "60"]
+
+
+@pytest.mark.parametrize("dt_text", DT_TEXTS)
+def test_sample_times_are_the_doubles_of_their_decimal_values(dt_text):
+    """Sample i lies at the double nearest to i * dt_out in decimal (checked against Python's
+    exact fractions, whose float() rounds once), and t_end written as a decimal multiple of
+    dt_out is its last sample exactly."""
+    dt = float(dt_text)
+    for steps in (1, 3, 7, 150, 300, 1001):
+        t_end = float(Fraction(dt_text) * steps)
+        t = output_times(t_end, dt)
+        assert len(t) == steps + 1 and t[-1] == t_end
+        assert all(t[i] == float(Fraction(dt_text) * i) for i in range(len(t)))
+
+
+def test_segment_starts_are_the_doubles_of_the_decimal_multiples_of_the_interval():
+    t, starts = output_grid(0.7, 0.001, 0.05)
+    assert starts == list(range(0, 700, 50))
+    assert [t[i] for i in starts] == [float(Fraction("0.05") * k) for k in range(14)]
+    assert t[150] == 0.15 and t[300] == 0.3 and t[700] == 0.7            # the doubles of the decks' text
+    assert is_segment_start(0.7, 0.001, 0.05, 0.15) and is_segment_start(0.7, 0.001, 0.1, 0.3)
+    assert not is_segment_start(0.7, 0.001, 0.05, 3 * 0.05)              # 0.15000000000000002: no sample
+    assert not is_segment_start(0.7, 0.001, 0.1, 0.17) and not is_segment_start(0.7, 0.001, 0.0, 0.3)
+    # A t_end off the dt_out grid is the last sample, after the last whole step.
+    t = output_times(0.1505, 0.001)
+    assert len(t) == 152 and t[-2] == 0.15 and t[-1] == 0.1505
+    # A dt_out with no short decimal form: binary multiples, t_end still exactly last.
+    t = output_times(1.0, 1.0 / 3.0)
+    assert len(t) == 4 and t[-1] == 1.0 and t[1] == 1.0 / 3.0
+    # A continuation's start must be a sample.
+    with pytest.raises(ValueError, match="not on the output grid"):
+        output_grid(0.3, 0.001, 0.05, restart_at=0.1505)

@@ -10,6 +10,7 @@ import numpy as np
 from pydriver.analyses.clamp_reach import reach_error
 from pydriver.analyses.common import RAD2DEG, REACTION_NAMES, base_summary, joint_columns, reactions, \
     straight_zy_warnings
+from pydriver.analyses.output_grid import is_segment_start, output_grid
 from pydriver.analyses.singularity import ClosestApproach
 from pydriver.analyses.statics import equilibrium, has_pulse
 from pydriver.errors import DeckError, RunError
@@ -22,39 +23,6 @@ CHUNK = 2000
 #: Largest time series kept in memory as well as on disk [bytes]; a run without an output
 #: directory that would need more is refused before it starts.
 MEMORY_LIMIT = 1.0e9
-
-
-def output_grid(t_end: float, dt_out: float, interval: float = 0.0, restart_at: float | None = None):
-    """(times, segment starts): the output times and the indices where IDA starts afresh, at
-    t = k * interval (``&solver checkpoint_interval``) and at a continuation's start.  Those
-    times are set exactly (k * interval, not k * m * dt_out), so a run and its continuation cut
-    at the same instants bit for bit (pydriver/checkpoint.py)."""
-    t = output_times(t_end, dt_out)
-    marks = []
-    if interval > 0.0:
-        marks += [k * interval for k in range(1, int(np.floor(t_end / interval * (1.0 + 1e-12))) + 1)]
-    if restart_at is not None:
-        marks.append(restart_at)
-    starts = {0}
-    for m in marks:
-        if m >= t[-1]:
-            continue
-        i = int(round(m / dt_out))
-        if abs(t[i] - m) > 1e-9 * max(dt_out, abs(m)):
-            raise ValueError(f"t = {m:g} s is not on the output grid of dt_out = {dt_out:g} s")
-        t[i] = m
-        starts.add(i)
-    return t, sorted(starts)
-
-
-def output_times(t_end: float, dt_out: float, t0: float = 0.0) -> np.ndarray:
-    """t0, t0 + dt_out, ... and exactly t_end last (never beyond it, never short of it)."""
-    n = int(np.floor((t_end - t0) / dt_out * (1.0 + 1e-12)))
-    t = t0 + dt_out * np.arange(n + 1)
-    if t[-1] < t_end - 1e-12 * max(abs(t_end), dt_out):
-        t = np.append(t, t_end)
-    t[-1] = t_end
-    return t
 
 
 #: Names of a joint's coordinates, in their order in q (docs/model.md: thesis gamma/beta, or
@@ -217,8 +185,9 @@ def dynamic_analysis(model, run_dir=None, restart=None) -> Result:
         checkpoint.write(run_dir.path(checkpoint.FILE), model, float(times[-1]), q_seg, v_seg)
         result.files[checkpoint.FILE] = run_dir.out / checkpoint.FILE
     if restart is not None:
-        summary["restarted_from"] = {"directory": str(restart.directory), "t_s": restart.t,
-                                     "note": "solver statistics are the continuation's"}
+        summary["restarted_from"] = _restart_summary(model, restart)
+        if not summary["restarted_from"]["same_as_uninterrupted_run"]:
+            summary.setdefault("warnings", []).append(summary["restarted_from"]["note"])
     _decay(model, result)
     if "fatigue" in model.deck.groups:
         if timeseries is None:
@@ -275,6 +244,29 @@ def _segment(model, tk_all, q0, v0, include_start, writer, in_memory, kept, q_al
     finally:
         session.close()
     return q_good, v_good, dict(session.stats)
+
+
+def _restart_summary(model, restart) -> dict:
+    """Where a continuation started, and whether it is the uninterrupted run bit for bit: it is
+    when that run starts IDA afresh at the very same double (a multiple of
+    ``checkpoint_interval``, :mod:`pydriver.analyses.output_grid`); otherwise IDA's step
+    history differs from there on, and so does the result, by the integration's tolerance."""
+    s = model.deck.values["solver"]
+    same = bool(s["checkpoint_interval"] > 0.0 and
+                is_segment_start(s["t_end"], s["dt_out"], s["checkpoint_interval"], restart.t))
+    if same:
+        note = ("bit for bit the uninterrupted run (IDA starts afresh at t = "
+                f"{restart.t:g} s in both); solver statistics are the continuation's")
+    elif s["checkpoint_interval"] > 0.0:
+        note = (f"continued from t = {restart.t:g} s, which is not a multiple of &solver checkpoint_interval = "
+                f"{s['checkpoint_interval']:g} s: IDA starts afresh there and the uninterrupted run does not, "
+                f"so the two differ by the integration's tolerance (rtol = {s['rtol']:g}), not bit for bit")
+    else:
+        note = (f"continued from t = {restart.t:g} s without &solver checkpoint_interval: IDA starts afresh "
+                "there and the uninterrupted run does not, so the two differ by the integration's tolerance "
+                f"(rtol = {s['rtol']:g}), not bit for bit")
+    return {"directory": str(restart.directory), "t_s": restart.t, "same_as_uninterrupted_run": same,
+            "note": note}
 
 
 def _earlier_columns(model, restart, names) -> dict:
