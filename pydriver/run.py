@@ -34,7 +34,8 @@ def run_deck(path, out=None, plots: bool = False, report: bool = False, vtk: boo
         and ``cable_NNNN.vtu`` (:mod:`pydriver.paraview`).
     restart : str or Path, optional
         A finished dynamic run's directory to continue from its end to this deck's ``t_end``
-        (:mod:`pydriver.checkpoint`); the deck must describe the same model.
+        (:mod:`pydriver.checkpoint`); the deck must describe the same model.  Its files are
+        read, never written; the whole continued run goes to ``out``.
 
     Returns
     -------
@@ -43,7 +44,9 @@ def run_deck(path, out=None, plots: bool = False, report: bool = False, vtk: boo
     Raises
     ------
     DeckError
-        Bad input, naming the deck, group, key and reason.
+        Bad input, naming the deck, group, key and reason (a
+        :class:`~pydriver.checkpoint.CheckpointError` for a ``restart`` directory whose files
+        cannot be continued, naming the file).
     RunError
         The solver failed on a valid deck.
     OutputError
@@ -56,9 +59,10 @@ def run_deck(path, out=None, plots: bool = False, report: bool = False, vtk: boo
     model = path if isinstance(path, Model) else Model.from_deck(path)
     checkpoint = None
     if restart is not None:
-        from pydriver import checkpoint as ck
-        checkpoint = ck.read(restart, model.name)
-        ck.check_same_model(model, checkpoint)
+        # Everything in the directory being continued is input: checked before anything is
+        # computed or written, and never written to (the continuation writes to ``out``).
+        from pydriver.checkpoint import continuation
+        checkpoint = continuation(model, restart)
     if out is None:
         result = run(model, restart=checkpoint)
         require_finite(result, model.name)

@@ -130,8 +130,10 @@ def dynamic_analysis(model, run_dir=None, restart=None) -> Result:
     kept, energy, g_max, q_all = [], [], [], []
     cardan = ClosestApproach(model)
     if restart is not None:
+        # The run being continued, as checked by pydriver.checkpoint.continuation: its whole
+        # time series up to restart.t, which ends with restart.q, restart.v.
         first = starts.index(int(np.searchsorted(times, restart.t)))
-        earlier = _earlier_columns(model, restart, names)
+        earlier = restart.record
         cardan.update(earlier["t"], np.radians(np.array([earlier[c] for c, _, _ in coordinate_columns(model)])))
         if writer is not None:
             writer.write(earlier)
@@ -267,22 +269,6 @@ def _restart_summary(model, restart) -> dict:
                 f"(rtol = {s['rtol']:g}), not bit for bit")
     return {"directory": str(restart.directory), "t_s": restart.t, "same_as_uninterrupted_run": same,
             "note": note}
-
-
-def _earlier_columns(model, restart, names) -> dict:
-    """The time series of the run being continued, read back from its directory."""
-    from pydriver.output import read_timeseries
-    path = next((restart.directory / f for f in ("timeseries.csv", "timeseries.h5")
-                 if (restart.directory / f).is_file()), None)
-    if path is None:
-        model.deck.fail("solver", "t_end", f"--restart {restart.directory}: its time series is missing")
-    cols = read_timeseries(path)
-    missing = [n for n in names if n not in cols]
-    if missing:
-        model.deck.fail("solver", "t_end", f"--restart {restart.directory}: its time series lacks "
-                                           f"{', '.join(missing[:4])} (written by another version)")
-    keep = cols["t"] <= restart.t
-    return {n: np.asarray(cols[n], float)[keep] for n in names}
 
 
 def _decay(model, result: Result):
