@@ -392,7 +392,8 @@ def _keys() -> list[Key]:
             doc="IDA's N_Vector operations: compiled loops or the library's own"))
     add(Key("solver", "checkpoint_interval", "real", unit="s", default=0.0, low=0.0, high=1.0e7, tiny=1.0e-9,
             doc="dynamic: IDA starts afresh every this many seconds (a multiple of dt_out; 0: never), so that "
-                "a continuation (run --restart DIR) reproduces the uninterrupted run exactly"))
+                "a continuation (run --restart DIR) of a run whose t_end is a multiple of it reproduces the "
+                "uninterrupted run exactly"))
     add(Key("solver", "periodic_method", "str", default="marching", choices=("marching", "shooting"),
             doc="flight: the periodic steady state by marching whole revolutions until two agree, or by "
                 "shooting (Newton on x(T) - x(0) with the monodromy from IDAS sensitivities)"))
