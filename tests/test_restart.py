@@ -151,3 +151,13 @@ def test_segment_starts_are_the_doubles_of_the_decimal_multiples_of_the_interval
     # A continuation's start must be a sample.
     with pytest.raises(ValueError, match="not on the output grid"):
         output_grid(0.3, 0.001, 0.05, restart_at=0.1505)
+
+
+def test_a_deck_of_another_analysis_is_refused_before_the_files_are_read(tmp_path):
+    """A static deck of another size asking to continue: its analysis is named, not the
+    checkpoint's number of coordinates."""
+    first = tmp_path / "first"
+    pydriver.run_deck(deck(tmp_path, "part", "0.1"), out=first)
+    with pytest.raises(pydriver.DeckError) as exc:
+        pydriver.run_deck(INPUTS / "six_link_static.nml", restart=first)
+    assert (exc.value.group, exc.value.key) == ("case", "analysis")
