@@ -81,11 +81,13 @@ def run_single(model, run_dir=None):
         dynamic_check(model, result)
         return result
     if analysis == "flight":
-        from pydriver.analyses.hover_modes import add_hover_modes
+        from pydriver.analyses.hover_modes import add_hover_modes, hover_modes, require_periodic_reachable
         from pydriver.analyses.integration_error import flight_check
+        hover = hover_modes(model)
+        require_periodic_reachable(model, hover)
         result = flight.flight_analysis(model, run_dir)
         flight_check(model, result)
-        add_hover_modes(model, result)
+        add_hover_modes(model, result, hover)
         if "monodromy" in result.extra:
             from pydriver.analyses.floquet import add_floquet
             add_floquet(model, result, result.extra["monodromy"], result.extra["period_s"])

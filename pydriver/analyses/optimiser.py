@@ -32,7 +32,7 @@ import numpy as np
 
 from pydriver.analyses.flight import flight_analysis
 from pydriver.analyses.flight_sensitivities import flight_sensitivities, worst_points_of
-from pydriver.analyses.hover_modes import hover_model
+from pydriver.analyses.hover_modes import hover_model, hover_modes, require_periodic_reachable
 from pydriver.analyses.resonance import harmonic_margin, operating_speeds
 from pydriver.analyses.sensitivities import modal_sensitivities, plan, static_outputs, static_sensitivities
 from pydriver.analyses.statics import drop_pulse, equilibrium
@@ -136,6 +136,8 @@ class Evaluator:
         margin, the first frequency of its hover state and that frequency's modal sensitivities."""
         model = self.model_at(p)
         plans = plan(model)                      # before the run: bad parameters refused first
+        # A march that cannot end within max_revolutions is refused before it runs (issue 35).
+        require_periodic_reachable(model, hover_modes(model))
         run = flight_analysis(model)
         orbit = run.extra["orbit"]
         # The run's own fatigue analysis found each joint's worst point around the jacket: the
