@@ -355,12 +355,13 @@ def _keys() -> list[Key]:
     add(Key("solver", "t_end", "real", unit="s", default=1.0, low=1.0e-9, high=1.0e7, doc="end time of a dynamic run"))
     add(Key("solver", "dt_out", "real", unit="s", default=1.0e-2, low=1.0e-12, high=1.0e7, doc="output interval"))
     # The range IDA honours on these chains (issue 35): at rtol 1e-2 the six-link reaction was 9 %
-    # off, at 1e-3 0.03 %; below rtol = atol = 1e-12 the index-2 corrector's round-off exceeds
-    # the Newton test at the first steps (pydriver/analyses/integration_error.py).
+    # off, at 1e-3 0.03 %; below rtol = 1e-12 the index-2 corrector's round-off exceeds the
+    # Newton test at the first steps (docs/model.md, "Tolerances and the run's own error"); a
+    # chain without constraint rows takes atol down to 1e-14 (tests/test_rotation_springs.py).
     add(Key("solver", "rtol", "real", default=1.0e-8, low=1.0e-12, high=1.0e-3, low_open=False,
             doc="relative tolerance (IDA); every dynamic and flight run estimates its own integration error "
                 "(integration_error in summary.json, error_estimate)"))
-    add(Key("solver", "atol", "real", default=1.0e-10, low=1.0e-12, high=1.0e-3, low_open=False,
+    add(Key("solver", "atol", "real", default=1.0e-10, low=1.0e-14, high=1.0e-3, low_open=False,
             doc="absolute tolerance on q [rad], v [rad/s]"))
     add(Key("solver", "error_estimate", "bool", default=True,
             doc="dynamic, flight: repeat the run (flight: its last revolution) at rtol/100 and report how much "
