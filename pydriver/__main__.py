@@ -93,7 +93,8 @@ def main(argv=None) -> int:
     study.add_argument("name", choices=["shapes", "cy-sweep", "refine", "design"],
                        help="shapes: rest vs hover plots; cy-sweep: frequency against c_y and the "
                             "flap crossing; refine: first frequency for n = 11, 22, 44, 88")
-    study.add_argument("--out", default="results/studies", help="output directory")
+    study.add_argument("--out", help="output directory (default results/studies/<name>/): new, empty or "
+                                     "an earlier output of the same study")
     examples = sub.add_parser("examples", help="copy the example decks into a directory (never overwrites)")
     examples.add_argument("dir", nargs="?", default="rotorcable-examples", help="target directory")
     init = sub.add_parser("init", help="write a new deck that starts as one of the examples")
@@ -107,9 +108,7 @@ def main(argv=None) -> int:
     if args.command in ("sweep", "sweep-task", "sweep-collect"):
         return _sweep_command(args)
     if args.command == "study":
-        from pydriver.study import run_study
-        print(run_study(args.name, Path(args.out)))
-        return 0
+        return _study_command(args)
     if args.out and len(args.decks) > 1:
         parser.error("--out takes one deck")
     _exit_on_termination()
@@ -161,6 +160,25 @@ def _version() -> str:
         return version("rotorcable")
     except PackageNotFoundError:          # a source tree without an installation
         return "(not installed)"
+
+
+def _study_command(args) -> int:
+    from pydriver.study import run_study
+    _exit_on_termination()
+    out = Path(args.out) if args.out else Path("results") / "studies" / args.name
+    try:
+        print(run_study(args.name, out))
+    except OutputError as exc:               # an output directory the study must not write
+        print(f"error: study {args.name}: {exc}", file=sys.stderr)
+        return 1
+    except (DeckError, RunError, RuntimeError) as exc:
+        print(f"error: study {args.name}: {exc}", file=sys.stderr)
+        return 1
+    except OSError as exc:                   # a directory that cannot be written, or no decks
+        where = f"cannot write the results to {out}: " if exc.errno is not None else ""
+        print(f"error: study {args.name}: {where}{exc.strerror or exc}", file=sys.stderr)
+        return 1
+    return 0
 
 
 def _examples_command(args) -> int:

@@ -29,7 +29,9 @@ from pydriver.analyses.resonance import harmonic_margin, operating_speeds
 from pydriver.deckfile import validate
 from pydriver.design_problem import problem
 from pydriver.model import Model
+from pydriver.ownership import study_kind
 from pydriver.run import run_deck
+from pydriver.run_directory import RunDirectory
 
 #: The refined quantity that is the cable's fatigue life (pydriver/analyses/refinement.py).
 LIFE = "fatigue life [h], shortest"
@@ -117,8 +119,27 @@ def _life(summary: dict) -> float | None:
 
 def design_study(deck_path, out: Path, levels: int = 3) -> dict:
     """Run the study (module doc) on a design deck with a flight objective; writes
-    ``design_study.json`` into ``out`` and returns its content."""
+    ``design_study.json`` into ``out`` and returns its content.
+
+    ``out`` is an output of the kind ``study design`` (:mod:`pydriver.ownership`): new, empty
+    or one earlier design study, checked before the optimisations start and written whole.
+
+    Raises
+    ------
+    OutputError
+        ``out`` must not be written (a user's files, another kind of output, a link, ...).
+    RuntimeError
+        No start converged to a design that holds the frequency margin.
+    """
     model = Model.from_deck(deck_path)
+    with RunDirectory(Path(out), deck=model.name, kind=study_kind("design")) as run_dir:
+        study = _design_study(model, deck_path, levels)
+        run_dir.path("design_study.json").write_text(json.dumps(study, indent=2, default=float) + "\n")
+        run_dir.commit()
+    return study
+
+
+def _design_study(model: Model, deck_path, levels: int) -> dict:
     runs = {label: optimise_from(model, p0, levels) for label, p0 in starts(model).items()}
     fair = {k: r for k, r in runs.items()
             if r["converged"] and r.get("frequency_margin", {}).get("satisfied", True)}
@@ -142,8 +163,6 @@ def design_study(deck_path, out: Path, levels: int = 3) -> dict:
         study["warning"] = (f"the optimum holds the {required:g} % margin at n = {after['n'][0]}, but its converged "
                             f"first frequency {after['f1_hz']:.4g} +- {after['f1_error_hz']:.2g} Hz is only "
                             f"{after['margin_percent']:.2f} % from {after['nearest_harmonic']}/rev")
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "design_study.json").write_text(json.dumps(study, indent=2, default=float) + "\n")
     return study
 
 

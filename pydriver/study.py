@@ -2,11 +2,13 @@
 where the first frequency meets the flap frequency, and discretisation refinement.
 
 Each study writes modified copies of a deck (namelist keys replaced, nothing else touched)
-into a temporary directory and runs them; results come back as numpy arrays.
+into a temporary directory and runs them; results come back as numpy arrays.  ``run_study``
+writes a study's files as one output of the kind ``study <name>`` (:mod:`pydriver.ownership`).
 """
 
 from __future__ import annotations
 
+import json
 import tempfile
 from pathlib import Path
 
@@ -14,7 +16,9 @@ import numpy as np
 
 from pydriver.deckfile import patch_deck
 from pydriver.examples import examples_dir
+from pydriver.ownership import study_kind
 from pydriver.run import run_deck
+from pydriver.run_directory import RunDirectory
 
 
 def override_deck(src, dst, changes: dict) -> Path:
@@ -89,54 +93,85 @@ def observed_order(h, values) -> float:
 
 def run_study(name: str, out: Path, inputs: Path | None = None) -> str:
     """Run a named study and write its CSV/JSON/PNG files into ``out``; returns a summary line.
-    The UH-60 decks come from the example decks (a source checkout's inputs/ or the installed
-    package's data) unless ``inputs`` says otherwise."""
+
+    ``out`` is an output of the kind ``study <name>`` (:mod:`pydriver.ownership`): a new or
+    empty directory or one earlier output of the same study, written whole through a
+    temporary directory (:class:`pydriver.run_directory.RunDirectory`) and refused, before
+    anything is computed, when it holds anything else.  The UH-60 decks come from the example
+    decks (a source checkout's inputs/ or the installed package's data) unless ``inputs``
+    says otherwise.
+
+    Raises
+    ------
+    ValueError
+        ``name`` is not a study.
+    OutputError
+        ``out`` must not be written (a user's files, another kind of output, a link, ...).
+    FileNotFoundError
+        The UH-60 decks are not in ``inputs``.
+    """
+    if name not in STUDIES:
+        raise ValueError(f"unknown study {name!r}; the studies are: {', '.join(STUDIES)}")
     inputs = Path(inputs) if inputs is not None else examples_dir()
     if not (inputs / "uh60_part2_modal.nml").is_file():
         raise FileNotFoundError(f"the UH-60 decks are not in {inputs}")
-    import json
-    from pydriver.plots import plot_frequency_vs_cy, plot_shapes
-    out.mkdir(parents=True, exist_ok=True)
-    if name == "shapes":
-        for part in (1, 2):
-            tables = {label: run_deck(inputs / f"uh60_part{part}{suffix}.nml").table
-                      for label, suffix in (("rest", ""), ("hover 260 rpm", "_hover"))}
-            plot_shapes(tables, out / f"uh60_part{part}_rest_vs_hover.png",
-                        f"UH-60 cable part {part}: rest vs hover (thesis Figures 5.6/5.12)")
-        return f"wrote {out}/uh60_part1_rest_vs_hover.png, uh60_part2_rest_vs_hover.png"
+    out = Path(out)
     if name == "design":
         from pydriver.design_study import design_study, study_lines
         study = design_study(inputs / "uh60_part2_design_flight.nml", out)
         return "\n".join(study_lines(study) + [f"wrote {out}/design_study.json"])
+    with RunDirectory(out, deck=name, kind=study_kind(name)) as run_dir:
+        line = STUDIES[name](inputs, run_dir.tmp)
+        run_dir.commit()
+    return f"{line}; wrote {out}"
+
+
+def _shapes(inputs: Path, tmp: Path) -> str:
+    from pydriver.plots import plot_shapes
+    for part in (1, 2):
+        tables = {label: run_deck(inputs / f"uh60_part{part}{suffix}.nml").table
+                  for label, suffix in (("rest", ""), ("hover 260 rpm", "_hover"))}
+        plot_shapes(tables, tmp / f"uh60_part{part}_rest_vs_hover.png",
+                    f"UH-60 cable part {part}: rest vs hover (thesis Figures 5.6/5.12)")
+    return "rest vs hover: uh60_part1_rest_vs_hover.png, uh60_part2_rest_vs_hover.png"
+
+
+def _cy_sweep(inputs: Path, tmp: Path) -> str:
+    from pydriver.plots import plot_frequency_vs_cy
     deck = inputs / "uh60_part2_modal.nml"
-    if name == "cy-sweep":
-        c = np.r_[1.0, np.arange(2.0, 71.0, 2.0)]
-        res = frequency_vs_cy(deck, c)
-        c_cross = cy_at_frequency(deck, 4.33, 0.5, 5.0)
-        rows = ["c_y_Nm_per_rad,f_undamped_hz,f_damped_hz,zeta"]
-        # repr(float(x)): the shortest text that reads back exactly (repr of a numpy 2 scalar
-        # is "np.float64(1.0)", which no CSV reader takes).
-        rows += [",".join(repr(float(x)) for x in row) for row in
-                 zip(res["c_y"], res["f_undamped_hz"], res["f_damped_hz"], res["zeta"])]
-        (out / "frequency_vs_cy.csv").write_text("\n".join(rows) + "\n")
-        (out / "flap_crossing.json").write_text(json.dumps(
-            {"f_flap_hz": 4.33, "c_y_Nm_per_rad": c_cross,
-             "thesis_reading_Nm_per_rad": 8.0}, indent=2) + "\n")
-        plot_frequency_vs_cy(res, out / "frequency_vs_cy.png", 4.33, c_cross)
-        return f"first frequency meets 4.33 Hz at c_y = {c_cross:.3f} Nm/rad; wrote {out}"
-    if name == "refine":
-        ns = [11, 22, 44, 88]
-        f_u, f_d = [], []
-        with tempfile.TemporaryDirectory() as tmp:
-            for n in ns:
-                p = override_deck(deck, Path(tmp) / f"n{n}.nml",
-                                  refined_changes(n, 11, 35.531, 1e-4, 0.05, 1e-4, (90.0, 70.0), 12.0, 90.0))
-                s = run_deck(p).summary
-                f_u.append(s["frequencies_hz"][0])
-                f_d.append(s["damped_frequencies_hz"][0])
-        order = observed_order(1.0 / np.array(ns), f_u)
-        (out / "refinement.json").write_text(json.dumps(
-            {"n_bodies": ns, "f_undamped_hz": f_u, "f_damped_hz": f_d,
-             "observed_order_undamped": order}, indent=2) + "\n")
-        return f"n = {ns}: f1 = {np.round(f_u, 3)} Hz, observed order {order:.2f}; wrote {out}"
-    raise ValueError(f"unknown study {name!r}")
+    c = np.r_[1.0, np.arange(2.0, 71.0, 2.0)]
+    res = frequency_vs_cy(deck, c)
+    c_cross = cy_at_frequency(deck, 4.33, 0.5, 5.0)
+    rows = ["c_y_Nm_per_rad,f_undamped_hz,f_damped_hz,zeta"]
+    # repr(float(x)): the shortest text that reads back exactly (repr of a numpy 2 scalar
+    # is "np.float64(1.0)", which no CSV reader takes).
+    rows += [",".join(repr(float(x)) for x in row) for row in
+             zip(res["c_y"], res["f_undamped_hz"], res["f_damped_hz"], res["zeta"])]
+    (tmp / "frequency_vs_cy.csv").write_text("\n".join(rows) + "\n")
+    (tmp / "flap_crossing.json").write_text(json.dumps(
+        {"f_flap_hz": 4.33, "c_y_Nm_per_rad": c_cross,
+         "thesis_reading_Nm_per_rad": 8.0}, indent=2) + "\n")
+    plot_frequency_vs_cy(res, tmp / "frequency_vs_cy.png", 4.33, c_cross)
+    return f"first frequency meets 4.33 Hz at c_y = {c_cross:.3f} Nm/rad"
+
+
+def _refine(inputs: Path, tmp: Path) -> str:
+    deck = inputs / "uh60_part2_modal.nml"
+    ns = [11, 22, 44, 88]
+    f_u, f_d = [], []
+    with tempfile.TemporaryDirectory() as decks:
+        for n in ns:
+            p = override_deck(deck, Path(decks) / f"n{n}.nml",
+                              refined_changes(n, 11, 35.531, 1e-4, 0.05, 1e-4, (90.0, 70.0), 12.0, 90.0))
+            s = run_deck(p).summary
+            f_u.append(s["frequencies_hz"][0])
+            f_d.append(s["damped_frequencies_hz"][0])
+    order = observed_order(1.0 / np.array(ns), f_u)
+    (tmp / "refinement.json").write_text(json.dumps(
+        {"n_bodies": ns, "f_undamped_hz": f_u, "f_damped_hz": f_d,
+         "observed_order_undamped": order}, indent=2) + "\n")
+    return f"n = {ns}: f1 = {np.round(f_u, 3)} Hz, observed order {order:.2f}"
+
+
+#: The studies that write through run_study's temporary directory (design writes its own).
+STUDIES = {"shapes": _shapes, "cy-sweep": _cy_sweep, "refine": _refine, "design": None}
