@@ -1,10 +1,11 @@
 """The sweep directory: one sweep at a time, its manifest, and one deck per grid point.
 
-``DIR/.sweep.lock`` is held (``flock``) from before the first file of a sweep is written until
-its run ends, and the manifest is read again under it: two sweeps started at the same moment
-into one directory cannot both write their grids there (one is refused), and a resume with
-another grid or base deck is refused without touching the directory.  The kernel drops the
-lock when its process dies, so a killed sweep never blocks its resume.
+The directory is checked before anything is written (:mod:`pydriver.sweep.layout`: new, empty
+or this sweep's, nothing else), then ``DIR/.sweep.lock`` is held (:mod:`pydriver.sweep.lock`)
+from before the first file of a sweep is written until its run ends, and the directory and the
+manifest are read again under it: two sweeps started at the same moment into one directory
+cannot both write their grids there (one is refused), and a resume with another grid or base
+deck is refused without touching the directory.
 
 Decks of grid points are the base deck patched by f90nml (:func:`pydriver.deckfile.patch_deck`):
 the deck text is never edited as text.
@@ -13,10 +14,8 @@ the deck text is never edited as text.
 from __future__ import annotations
 
 import contextlib
-import errno
 import hashlib
 import json
-import os
 import sys
 import tempfile
 from pathlib import Path
@@ -29,41 +28,18 @@ from pydriver.sweep.faults import reason, writing
 from pydriver.sweep.files import write_atomic
 from pydriver.sweep.given_paths import checked_path
 from pydriver.sweep.grid import check_against_base, expand_grid, point_changes
-from pydriver.sweep.records import MANIFEST, read_manifest
+from pydriver.sweep.layout import (
+    MANIFEST,
+    check_sweep_directory,
+    claim,
+    existing_manifest,
+    write_file,
+)
+from pydriver.sweep.lock import LOCK, hold_lock
+from pydriver.sweep.records import read_manifest
 from pydriver.sweep.table import TABLE
 
-LOCK = ".sweep.lock"
-
-
-@contextlib.contextmanager
-def hold_lock(out: Path):
-    """Hold ``out/.sweep.lock`` for the block; refuse at once if another process holds it.
-
-    Raises
-    ------
-    SweepError
-        Another sweep is running (or being prepared) in ``out``.
-    """
-    try:
-        import fcntl
-    except ImportError:          # not POSIX: no locking
-        yield
-        return
-    # O_CLOEXEC: no child may inherit the lock (pool workers come from the forkserver, which
-    # gets no descriptors of this process, and Dask and Slurm workers are other processes).
-    with writing(out / LOCK):
-        fd = os.open(out / LOCK, os.O_RDWR | os.O_CREAT | getattr(os, "O_CLOEXEC", 0), 0o666)
-    with os.fdopen(fd, "rb") as fh:
-        try:
-            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError as exc:
-            if exc.errno in (errno.EAGAIN, errno.EACCES):
-                raise SweepError(f"{out}: another sweep is running in this directory (it holds "
-                                 f"{LOCK}); wait for it to end, or choose another --out") from None
-            # A file system without locks (some NFS set-ups): run unprotected rather than
-            # refuse; the records stay consistent, only concurrent sweeps are not caught.
-        yield
-
+__all__ = ["LOCK", "deck_text", "hold_lock", "open_sweep", "plan", "prepare"]
 
 def deck_text(base: Path, params: list, values: list, id_: str) -> str:
     """The deck of one grid point: the base deck patched by f90nml, with a header comment."""
@@ -140,7 +116,7 @@ def _grid_of(manifest: dict) -> tuple:
 
 def _adopt(out: Path, manifest: dict) -> dict:
     """Under the lock: the manifest of ``out`` if it holds this sweep, else write ours."""
-    if (out / MANIFEST).is_file():
+    if existing_manifest(out) is not None:
         old = read_manifest(out)
         if _grid_of(old) != _grid_of(manifest):
             what = ("its base deck differs" if old["base_sha256"] != manifest["base_sha256"]
@@ -150,7 +126,7 @@ def _adopt(out: Path, manifest: dict) -> dict:
         return old                      # keep the original record of how it was made
     if any((out / name).exists() for name in ("runs", "decks", TABLE)):
         raise SweepError(f"{out} holds sweep files but no {MANIFEST}; choose a new --out")
-    write_atomic(out / MANIFEST, json.dumps(manifest, indent=1) + "\n")
+    write_file(out, MANIFEST, json.dumps(manifest, indent=1) + "\n")
     return manifest
 
 
@@ -158,6 +134,7 @@ def _write_decks(out: Path, base: Path, manifest: dict) -> None:
     """``decks/<id>.nml`` for every grid point; decks already right are left untouched."""
     (out / "decks").mkdir(exist_ok=True)
     (out / "runs").mkdir(exist_ok=True)
+    claim(out, [f"decks/{p['id']}.nml" for p in manifest["points"]])
     for p in manifest["points"]:
         deck = out / "decks" / f"{p['id']}.nml"
         try:
@@ -193,15 +170,17 @@ def open_sweep(base, sets: list[str], out):
     ------
     SweepError
         Bad option (named), first grid point not a valid deck, another sweep running in
-        ``out``, ``out`` holding a different sweep or other sweep files, ``out`` or ``base``
-        with a control character, or a file of the sweep that cannot be written (named, with
-        the reason).
+        ``out``, ``out`` holding a different sweep or anything but this sweep (named:
+        :mod:`pydriver.sweep.layout`), ``out`` a link, ``out`` or ``base`` with a control
+        character, or a file of the sweep that cannot be written (named, with the reason).
     """
-    out = checked_path(out, "--out")
+    out = checked_path(out, "--out", link_ok=False)
     manifest = plan(base, sets)            # nothing is written before this passes
+    check_sweep_directory(out, manifest)
     with writing(out):
         out.mkdir(parents=True, exist_ok=True)
     with hold_lock(out):
+        check_sweep_directory(out, manifest)      # again, now that no other sweep can write
         with writing(out):
             manifest = _adopt(out, manifest)
             _write_decks(out, Path(base).resolve(), manifest)

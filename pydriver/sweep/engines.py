@@ -34,8 +34,8 @@ from pydriver.sweep import lifeline
 from pydriver.sweep.directory import open_sweep
 from pydriver.sweep.errors import SweepError
 from pydriver.sweep.faults import writing
-from pydriver.sweep.files import write_atomic
 from pydriver.sweep.given_paths import checked_path, refuse_control_characters
+from pydriver.sweep.layout import write_file
 from pydriver.sweep.records import read_record, run_task
 
 # Thread-count variables of the BLAS libraries numpy and the Fortran core may link.
@@ -230,7 +230,7 @@ def write_slurm(base, sets: list[str], out) -> tuple[Path, list[str]]:
         As ``run_sweep``; also an ``--out`` with a backslash, or an interpreter path with a
         control character.  Every path is checked before anything is written.
     """
-    out = checked_path(out, "--out")
+    out = checked_path(out, "--out", link_ok=False)
     logs = out / "slurm"
     output = output_pattern(logs)
     q = shlex.quote
@@ -266,5 +266,5 @@ export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1
 """
         with writing(path):
             logs.mkdir(exist_ok=True)
-            write_atomic(path, script, mode=0o777)   # executable, as far as the umask allows
+            write_file(out, SCRIPT, script, mode=0o777)   # executable, as far as the umask allows
     return path, [submit_cmd, collect_cmd]

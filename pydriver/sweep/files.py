@@ -21,6 +21,10 @@ _ATTEMPTS = 16
 _CLOEXEC = getattr(os, "O_CLOEXEC", 0)        # POSIX; Windows handles are not inherited anyway
 
 
+#: The tail of a hidden temporary name after ``.<name>``: ``.<pid>.<16 hex digits>``.
+HIDDEN_TAIL = r"\.\d+\.[0-9a-f]{16}"
+
+
 def _hidden_name(directory: Path, name: str) -> Path:
     return directory / f".{name}.{os.getpid()}.{secrets.token_hex(8)}"
 

@@ -31,7 +31,7 @@ def refuse_control_characters(path, what: str) -> None:
         raise SweepError(str(exc)) from None
 
 
-def checked_path(path, what: str) -> Path:
+def checked_path(path, what: str, link_ok: bool = True) -> Path:
     """``path`` made absolute, after refusing it when it holds a control character.
 
     Parameters
@@ -40,6 +40,9 @@ def checked_path(path, what: str) -> Path:
         The path as the user gave it.
     what : str
         How the user gave it, for the message (``"--out"``, ``"base deck"``).
+    link_ok : bool
+        False for a directory the sweep writes into: a symbolic link there is refused, as for
+        any output of rotorcable (:mod:`pydriver.ownership`), rather than written through.
 
     Returns
     -------
@@ -49,9 +52,13 @@ def checked_path(path, what: str) -> Path:
     Raises
     ------
     SweepError
-        The path, or its absolute form, holds a control character (newline, tab, NUL, ...).
+        The path, or its absolute form, holds a control character (newline, tab, NUL, ...), or
+        it is a symbolic link where ``link_ok`` is False.
     """
     refuse_control_characters(path, what)      # first: resolve() itself fails on a NUL byte
+    if not link_ok and Path(path).is_symlink():
+        raise SweepError(f"{what} {path} is a symbolic link; give a directory (rotorcable does not "
+                         "write through links)")
     resolved = Path(path).resolve()
     refuse_control_characters(resolved, f"{what} (as an absolute path)")
     return resolved

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pydriver.sweep.files import write_atomic
+from pydriver.sweep.layout import write_file
 from pydriver.sweep.table import REACTION_COLUMNS
 
 PLOT_RESULTS = ["f1_hz", "f1_damped_hz", "zeta1"] + REACTION_COLUMNS
@@ -36,7 +36,8 @@ def axis_label(name: str) -> str:
 
 
 def plot_sweep(out, table: dict, params: list, scales: dict) -> list[Path]:
-    """Draw the plots of a sweep into ``out/plots/`` (each file written atomically).
+    """Draw the plots of a sweep into ``out/plots/`` (each file written atomically, and listed
+    in the sweep's marker first: :func:`pydriver.sweep.layout.write_file`; under its lock).
 
     Parameters
     ----------
@@ -89,7 +90,6 @@ def plot_sweep(out, table: dict, params: list, scales: dict) -> list[Path]:
             fig.savefig(png, format="png", dpi=110)
             plt.close(fig)
             # File names without the parentheses of element keys (loads.gravity(3)).
-            final = plots / (re.sub(r"[^\w.-]", "_", f"{name}_vs_{p}") + ".png")
-            write_atomic(final, png.getvalue())
-            written.append(final)
+            final = re.sub(r"[^\w.-]", "_", f"{name}_vs_{p}") + ".png"
+            written.append(write_file(out, f"plots/{final}", png.getvalue()))
     return written

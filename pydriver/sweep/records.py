@@ -6,7 +6,8 @@ temporary directory and renamed to ``runs/<id>`` when complete, so a sweep kille
 moment leaves either a whole record or none, and a rerun skips the ids that have one.
 :func:`run_task` makes one record; it is the task of every engine (local pool, Dask, Slurm).
 A failure of the machine (a full disk, :mod:`pydriver.sweep.faults`) makes no record: the
-point is run again by the next run of the sweep.
+point is run again by the next run of the sweep.  Both kinds of record carry a marker
+(:mod:`pydriver.ownership`): kind ``run``, or ``sweep error`` listing ``error.json``.
 """
 
 from __future__ import annotations
@@ -16,13 +17,20 @@ import os
 import shutil
 from pathlib import Path
 
+from pydriver.ownership import MARKER, SWEEP_ERROR, marker_text
 from pydriver.run import run_deck
 from pydriver.sweep.errors import SweepError
 from pydriver.sweep.faults import is_environmental, not_run_reason
 from pydriver.sweep.files import make_hidden_dir, write_atomic
 from pydriver.sweep.given_paths import checked_path
+from pydriver.sweep.layout import (
+    ERROR_FILE,
+    MANIFEST,
+    check_sweep_directory,
+    existing_manifest,
+)
 
-MANIFEST = "sweep.json"
+__all__ = ["MANIFEST", "read_manifest", "read_record", "run_point", "run_task"]
 
 
 def read_manifest(out) -> dict:
@@ -31,12 +39,12 @@ def read_manifest(out) -> dict:
     Raises
     ------
     FileNotFoundError
-        ``out`` holds no manifest.
+        ``out`` holds no manifest (none, a link, not one of rotorcable).
     """
-    path = Path(out) / MANIFEST
-    if not path.is_file():
-        raise FileNotFoundError(f"{out}: not a sweep directory (no {MANIFEST})")
-    return json.loads(path.read_text())
+    manifest = existing_manifest(out)
+    if manifest is None:
+        raise FileNotFoundError(f"{out}: not a sweep directory (no {MANIFEST} of rotorcable)")
+    return manifest
 
 
 def read_record(run_dir) -> dict | None:
@@ -97,8 +105,9 @@ def run_task(deck, run_dir) -> dict:
             if is_environmental(exc):
                 raise           # the machine failed, not the deck: no record (faults module)
             error = f"{type(exc).__name__}: {exc}"
-            write_atomic(tmp / "error.json", json.dumps(
+            write_atomic(tmp / ERROR_FILE, json.dumps(
                 {"id": run_dir.name, "deck": str(deck), "error": error}, indent=1) + "\n")
+            write_atomic(tmp / MARKER, marker_text(SWEEP_ERROR, [ERROR_FILE], deck.name, tmp))
         try:
             # rename() onto an existing non-empty directory fails: the first record stays.
             os.rename(tmp, run_dir)
@@ -106,7 +115,7 @@ def run_task(deck, run_dir) -> dict:
             if read_record(run_dir) is None:
                 raise
     finally:
-        shutil.rmtree(tmp, ignore_errors=True)      # gone already after the rename
+        shutil.rmtree(tmp, ignore_errors=True)      # made above; gone already after the rename
     return {"id": run_dir.name, "error": error, "skipped": False}
 
 
@@ -130,11 +139,14 @@ def run_point(out, index: int) -> dict:
     Raises
     ------
     SweepError
-        ``index`` outside the grid, ``out`` with a control character, or the point not run
-        for a failure of the machine (it has no record then, so running the task again runs
-        it).
+        ``index`` outside the grid, ``out`` with a control character, ``out`` a link or holding
+        anything but its sweep (named: :mod:`pydriver.sweep.layout`), or the point not run for
+        a failure of the machine (it has no record then, so running the task again runs it).
+    FileNotFoundError
+        ``out`` holds no sweep.
     """
-    out = checked_path(out, "sweep directory")
+    out = checked_path(out, "sweep directory", link_ok=False)
+    check_sweep_directory(out, existing_manifest(out), "sweep directory")
     manifest = read_manifest(out)
     points = manifest["points"]
     if not 0 <= index < len(points):

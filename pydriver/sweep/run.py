@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import shutil
 import sys
 from pathlib import Path
 
@@ -11,8 +10,9 @@ from pydriver.sweep.engines import default_jobs, run_dask, run_pool
 from pydriver.sweep.errors import SweepError
 from pydriver.sweep.faults import not_run_reason
 from pydriver.sweep.given_paths import checked_path
+from pydriver.sweep.layout import remove_record, remove_stale_records
 from pydriver.sweep.records import read_record
-from pydriver.sweep.table import SweepStatus, collect
+from pydriver.sweep.table import SweepStatus, collect_locked
 
 _LOST_SHOWN = 3          # points named in an error message; the rest are counted
 
@@ -30,16 +30,17 @@ def _progress(total, initial, enabled):
 def _tasks(out: Path, manifest: dict, retry_failed: bool) -> tuple[list, list]:
     """``(id, deck, run_dir)`` of the points without a record, and the ids that have one."""
     runs = out / "runs"
-    for stale in runs.glob(".*"):
-        # Temporary directories of runs killed before finishing; under the lock nothing of
-        # this sweep is running (pool workers die with their sweep: lifeline), so they are dead.
-        shutil.rmtree(stale, ignore_errors=True)
+    # What runs killed before finishing left (pool workers die with their sweep: lifeline);
+    # only what is provably theirs goes (pydriver.sweep.layout).
+    remove_stale_records(runs, {p["id"] for p in manifest["points"]})
     tasks, skipped = [], []
     for p in manifest["points"]:
         id_ = p["id"]
         rec = read_record(runs / id_)
         if rec is not None and "error" in rec and retry_failed:
-            shutil.rmtree(runs / id_)
+            if not remove_record(runs / id_):
+                raise SweepError(f"{runs / id_}: cannot remove the record of the failed deck to run it "
+                                 "again: it holds files this sweep did not write")
             rec = None
         if rec is None:
             tasks.append((id_, out / "decks" / f"{id_}.nml", runs / id_))
@@ -95,7 +96,7 @@ def run_sweep(base, sets: list[str], out, *, jobs: int | None = None, dask: str 
     records are simply missing and the next run makes them.  So are those of decks stopped
     by a failure of the machine (a full disk): they are in ``lost`` with the reason.
     """
-    out = checked_path(out, "--out")
+    out = checked_path(out, "--out", link_ok=False)
     with open_sweep(base, sets, out) as manifest:
         tasks, skipped = _tasks(out, manifest, retry_failed)
         lost = {}
@@ -118,7 +119,7 @@ def run_sweep(base, sets: list[str], out, *, jobs: int | None = None, dask: str 
             if bar is not None:
                 bar.close()
         try:
-            status = collect(out, plots=plots, report=report)
+            status = collect_locked(out, manifest, plots=plots, report=report)
         except SweepError as exc:
             if not lost:
                 raise

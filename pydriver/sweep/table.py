@@ -17,8 +17,9 @@ from pathlib import Path
 import numpy as np
 
 from pydriver.sweep.faults import writing
-from pydriver.sweep.files import write_atomic
 from pydriver.sweep.given_paths import checked_path
+from pydriver.sweep.layout import check_sweep_directory, existing_manifest, write_file
+from pydriver.sweep.lock import hold_lock
 from pydriver.sweep.records import read_manifest, read_record
 
 TABLE = "sweep.csv"
@@ -250,9 +251,11 @@ def collect(out, plots: bool = True, report: bool = False) -> SweepStatus:
     Raises
     ------
     SweepError
-        ``out`` with a control character, or ``sweep.csv``, a plot or the report that cannot
-        be written (named, with the reason: e.g. no space left on device).  A file that
-        cannot be written is left as it was, whole (:func:`pydriver.sweep.files.write_atomic`).
+        ``out`` with a control character, a sweep running in ``out`` (it collects itself),
+        ``out`` holding anything but its sweep (named: :mod:`pydriver.sweep.layout`), or
+        ``sweep.csv``, a plot or the report that cannot be written (named, with the reason:
+        e.g. no space left on device).  A file that cannot be written is left as it was,
+        whole (:func:`pydriver.sweep.files.write_atomic`).
 
     Notes
     -----
@@ -260,14 +263,22 @@ def collect(out, plots: bool = True, report: bool = False) -> SweepStatus:
     holds exactly one row per finished run, sorted by id.  Safe to run while tasks are still
     running (e.g. a Slurm array): it shows what has finished.
     """
-    out = checked_path(out, "sweep directory")
+    out = checked_path(out, "sweep directory", link_ok=False)
+    check_sweep_directory(out, existing_manifest(out), "sweep directory")   # names what is there
     manifest = read_manifest(out)
+    with hold_lock(out):
+        check_sweep_directory(out, manifest, "sweep directory")       # again, under the lock
+        return collect_locked(out, manifest, plots, report)
+
+
+def collect_locked(out: Path, manifest: dict, plots: bool = True, report: bool = False) -> SweepStatus:
+    """:func:`collect` for a caller that holds the sweep's lock and has checked its directory."""
     columns, rows = sweep_rows(out, manifest)
     # The records stay whatever fails here; the table, plots and report are made from them.
     hint = (f" (the records in {out / 'runs'} are kept: once fixed, run "
             f"`python -m pydriver sweep-collect {shlex.quote(str(out))}`)")
     with writing(out / TABLE, hint):
-        write_atomic(out / TABLE, table_csv_text(columns, rows))
+        write_file(out, TABLE, table_csv_text(columns, rows))
     done = {r["id"] for r in rows}
     status = SweepStatus(out=out, n_points=len(manifest["points"]),
                          failed=[r["id"] for r in rows if r["error"]],
@@ -280,5 +291,5 @@ def collect(out, plots: bool = True, report: bool = False) -> SweepStatus:
     if report:
         from pydriver.sweep.report import sweep_report_html
         with writing(out / "report.html", hint):
-            write_atomic(out / "report.html", sweep_report_html(out, manifest, columns, rows, status))
+            write_file(out, "report.html", sweep_report_html(out, manifest, columns, rows, status))
     return status
