@@ -3,14 +3,17 @@ installed package (``pydriver/examples/``, package data of the wheel), copied ou
 or used as the start of a new deck (``rotorcable examples``, ``rotorcable init``).
 
 Neither command overwrites a file: an example already in the target directory is left as it
-is and named, and ``init`` refuses an existing deck (a user's file is never replaced).
+is and named, and ``init`` refuses an existing deck (a user's file is never replaced).  Each
+file is created new, never through a link (:func:`pydriver.ownership.create_new_file`): a link
+placed where a deck would go, even one that points nowhere, counts as a file already there.
 """
 
 from __future__ import annotations
 
-import shutil
 from datetime import date
 from pathlib import Path
+
+from pydriver.ownership import create_new_file
 
 _PACKAGE = Path(__file__).resolve().parent
 
@@ -35,17 +38,24 @@ def copy_examples(dest) -> tuple[list[Path], list[Path]]:
     Returns
     -------
     written, kept : list of Path
-        The decks copied, and those already present in ``dest`` (left untouched).
+        The decks copied, and the names already taken in ``dest`` (a file, a directory or a
+        link: left untouched).
+
+    Raises
+    ------
+    OSError
+        ``dest`` cannot be made or written.
     """
     dest = Path(dest)
     dest.mkdir(parents=True, exist_ok=True)
     written, kept = [], []
     for src in sorted(examples_dir().glob("*.nml")):
         target = dest / src.name
-        if target.exists() or target.is_symlink():
+        try:
+            create_new_file(target, src.read_bytes())
+        except FileExistsError:
             kept.append(target)
             continue
-        shutil.copyfile(src, target)
         written.append(target)
     return written, kept
 
@@ -56,7 +66,7 @@ def init_deck(path, like: str) -> Path:
     Raises
     ------
     FileExistsError
-        ``path`` exists (it is never replaced).
+        ``path`` exists, or is a link (it is never replaced, nor written through).
     ValueError
         ``like`` is not an example deck.
     """
@@ -73,6 +83,8 @@ def init_deck(path, like: str) -> Path:
               "! the cable and the supports, then: rotorcable run " + path.name + "\n!\n")
     text = text.replace(f"name = '{like}'", f"name = '{path.stem}'", 1)
     path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "x", encoding="utf-8") as fh:          # "x": fails if it appeared meanwhile
-        fh.write(header + text)
-    return path
+    try:
+        return create_new_file(path, header + text)        # fails if it appeared meanwhile
+    except FileExistsError:
+        raise FileExistsError(f"{path} exists; rotorcable init never replaces a file (choose another "
+                              "name)") from None
