@@ -284,8 +284,13 @@ def outputs_markdown() -> str:
              "`table.txt` (the equilibrium in the layout of the thesis's appendix; English, or German with "
              "`&output table_language = 'de'`), `report.html` (with the cable's animation for flight and dynamic "
              "runs), the PNG plots, `checkpoint.npz` (dynamic runs: the end state for `run --restart`), `cable.pvd` and `cable_NNNN.vtu` (`--vtk`: a ParaView time series of the "
-             "cable, point data strain, bending moment and damage), and `.rotorcable-run.json` (the marker "
-             "listing the run's files).", ""]
+             "cable, point data strain, bending moment and damage), and `.rotorcable-run.json` (the marker: "
+             "program, kind of output (`run`, `study <name>`, `sweep`, `sweep error`), deck, the directory it "
+             "was written to and the files it wrote; a later output replaces only an earlier one of the "
+             "same kind, and deletes only the files listed there, `pydriver/ownership.py`).  A sweep "
+             "directory has one too, listing the files the sweep wrote itself (`sweep.json`, `decks/`, "
+             "`sweep.csv`, `plots/`, `report.html`, `sweep.slurm`); each record in `runs/<id>/` has its own.",
+             ""]
     files = sorted({f for c in COLUMNS for f in c.files})
     for f in files:
         lines += [f"## `{f}`", "", "| column | unit | meaning |", "|---|---|---|"]

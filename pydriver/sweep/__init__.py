@@ -3,7 +3,8 @@
 Layout of a sweep directory ``DIR``::
 
     DIR/sweep.json         manifest: base deck (and its SHA-256), the --set specs, the grid
-    DIR/.sweep.lock        held by the sweep writing or running in DIR (flock)
+    DIR/.rotorcable-run.json  marker (kind "sweep"): the files the sweep wrote itself
+    DIR/.sweep.lock        held by the sweep writing, running or collecting in DIR (flock)
     DIR/decks/<id>.nml     one plain deck per grid point (re-runnable alone)
     DIR/runs/<id>/         the record of a finished deck: the files of `pydriver run`
                            (summary.json, table.csv, modes.csv, ...) or error.json
@@ -24,8 +25,13 @@ memory) is not: the point stays without a record, is reported as not run with th
 the next run of the sweep runs it.  Paths with a control character are refused before anything
 is written.
 
+A sweep writes only into a new or empty directory or its own (:mod:`~pydriver.sweep.layout`,
+the rule of :mod:`pydriver.ownership`); anything else is refused before anything is written.
+
 Modules: :mod:`~pydriver.sweep.grid` (the ``--set`` syntax and grid, checked by the deck
-schema), :mod:`~pydriver.sweep.directory` (lock, manifest, decks), :mod:`~pydriver.sweep.records`
+schema), :mod:`~pydriver.sweep.layout` (what a sweep directory may hold, the marker),
+:mod:`~pydriver.sweep.lock` (one sweep at a time), :mod:`~pydriver.sweep.directory` (manifest,
+decks), :mod:`~pydriver.sweep.records`
 (one deck's record), :mod:`~pydriver.sweep.table` (``sweep.csv``), :mod:`~pydriver.sweep.plots`,
 :mod:`~pydriver.sweep.engines` (pool, Dask, Slurm), :mod:`~pydriver.sweep.lifeline` (pool
 processes die with the sweep),
