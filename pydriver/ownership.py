@@ -205,8 +205,14 @@ def foreign_entries(directory, kind: str = RUN,
     foreign: list[str] = []
 
     def visit(rel_dir: str):
-        with os.scandir(directory / rel_dir if rel_dir else directory) as it:
-            entries = sorted(it, key=lambda e: e.name)
+        try:
+            with os.scandir(directory / rel_dir if rel_dir else directory) as it:
+                entries = sorted(it, key=lambda e: e.name)
+        except OSError:
+            if not rel_dir:
+                raise
+            foreign.append(rel_dir + "/")          # unreadable: nothing in it is provably ours
+            return
         for e in entries:
             rel = f"{rel_dir}/{e.name}" if rel_dir else e.name
             if rel == MARKER and marker is not None:
@@ -278,12 +284,19 @@ def check_output_directory(out, kind: str = RUN, what: str = "--out",
             f"(marked by {MARKER}): choose a new or empty directory")
     marker = read_marker(out)
     if marker is not None and marker.kind != kind:
-        with os.scandir(out) as it:
-            there = sorted(e.name + ("/" if e.is_dir(follow_symlinks=False) else "") for e in it)
+        try:
+            with os.scandir(out) as it:
+                there = sorted(e.name + ("/" if e.is_dir(follow_symlinks=False) else "") for e in it)
+        except OSError:
+            there = [MARKER]
         raise OutputError(errno.EEXIST, f"{what} {out} holds a {marker.kind} of rotorcable"
                                         f"{' of ' + marker.deck if marker.deck else ''} ({len(there)}: "
                                         f"{_shown(there)}), not a {kind}; {rule}", str(out))
-    foreign = foreign_entries(out, kind, also_ours)
+    try:
+        foreign = foreign_entries(out, kind, also_ours)
+    except OSError as exc:
+        raise OutputError(exc.errno or errno.EACCES, f"{what} {out} cannot be read "
+                                                     f"({exc.strerror or exc}); {rule}", str(out)) from None
     if foreign:
         raise OutputError(errno.EEXIST, f"{what} {out} holds files rotorcable did not write "
                                         f"({len(foreign)}: {_shown(foreign)}); {rule}", str(out))
@@ -303,7 +316,7 @@ def unlink_plain_file(directory, name: str) -> bool:
             return False
         os.unlink(name, dir_fd=fd)
         return True
-    except FileNotFoundError:
+    except OSError:                  # gone already, or not ours to delete after all: it stays
         return False
     finally:
         os.close(fd)

@@ -324,3 +324,40 @@ def test_only_verified_temporaries_of_gone_processes_are_removed(tmp_path, monke
     assert not tmp.exists()                                      # verified, its process gone
     after = snapshot(tmp_path / "ws")
     assert {k: v for k, v in after.items() if not k.startswith("other")} == before
+
+
+def test_a_sweep_removes_only_what_its_killed_tasks_left(tmp_path):
+    """In runs/, a resume removes a verified temporary and the records being made of gone
+    processes (their own files only); --retry-failed removes a failed record's listed files.
+    A user's file in any of them stays, and one in a record stops the sweep, naming it."""
+    from pydriver.sweep import SweepError, prepare, run_point, run_sweep
+    grid = ["springs.c_beta=35.531,-1"]                    # point 0001 fails: a negative spring
+    out = tmp_path / "sweep"
+    prepare(MODAL, grid, out)
+    assert run_point(out, 0)["error"] is None and run_point(out, 1)["error"].startswith("DeckError")
+    runs = out / "runs"
+    empty = runs / f".0000.{DEAD}.0123456789abcdef"        # a task killed before its run finished
+    empty.mkdir()
+    users = runs / f".0001.{DEAD}.fedcba9876543210"        # the same name with a user's file in it
+    users.mkdir()
+    (users / "keep.txt").write_text("mine")
+    temporary = runs / f"..0000.{DEAD}.0123456789abcdef.tmp-{DEAD}-abc"
+    temporary.mkdir()
+    (temporary / TMP_MARKER).write_text(json.dumps({"program": "rotorcable", "pid": DEAD, "host": socket.gethostname(),
+                                                    "out": str(runs.resolve() / empty.name)}))
+    (temporary / "timeseries.csv").write_text("t\n")
+    look_alike = runs / f".other.tmp-{DEAD}-x"               # no marker: never removed
+    look_alike.mkdir()
+    (look_alike / "keep.txt").write_text("mine")
+    before = (out / "runs" / "0001" / "error.json").read_text()
+    status = run_sweep(MODAL, grid, out, jobs=1, progress=False, plots=False, retry_failed=True)
+    assert status.ran == ["0001"] and status.failed == ["0001"]
+    assert not empty.exists() and not temporary.exists()
+    assert (users / "keep.txt").read_text() == "mine" and (look_alike / "keep.txt").read_text() == "mine"
+    assert (out / "runs" / "0001" / "error.json").read_text() == before        # made again, the same
+    # A user's note in a record: the sweep's directory is no longer only the sweep's.
+    (out / "runs" / "0001" / "note.txt").write_text("why did this fail?")
+    with pytest.raises(SweepError, match="runs/0001/"):
+        run_sweep(MODAL, grid, out, jobs=1, progress=False, plots=False, retry_failed=True)
+    assert (out / "runs" / "0001" / "note.txt").read_text() == "why did this fail?"
+    assert (out / "runs" / "0001" / "error.json").read_text() == before

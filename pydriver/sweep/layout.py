@@ -134,8 +134,11 @@ def remove_stale_records(runs: Path, ids: set[str]) -> None:
     if not runs.is_dir() or runs.is_symlink():
         return
     clean_stale_temporaries(runs)
-    with os.scandir(runs) as it:
-        hidden = [(e.path, _HIDDEN_RECORD.fullmatch(e.name)) for e in it if e.is_dir(follow_symlinks=False)]
+    try:
+        with os.scandir(runs) as it:
+            hidden = [(e.path, _HIDDEN_RECORD.fullmatch(e.name)) for e in it if e.is_dir(follow_symlinks=False)]
+    except OSError:
+        return                       # unreadable: the records' own reads will say why
     for path, match in hidden:
         if match is not None and match["id"] in ids and not pid_alive(int(match["pid"])):
             remove_record(path)
@@ -158,8 +161,11 @@ def sweep_layout(out, manifest: dict | None) -> Callable[[str, os.DirEntry], str
         real_dir = entry.is_dir(follow_symlinks=False)
         name = parts[-1]
         if len(parts) == 1:
-            if name == LOCK:
-                return OURS if regular and entry.stat(follow_symlinks=False).st_size == 0 else None
+            if name == LOCK:        # empty: flock never writes into it
+                try:
+                    return OURS if regular and entry.stat(follow_symlinks=False).st_size == 0 else None
+                except OSError:
+                    return None
             if regular and _TOP_TEMPORARY.fullmatch(name):
                 return OURS
             if not recognised:
