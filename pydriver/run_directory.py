@@ -103,8 +103,8 @@ class RunDirectory:
     deck : str
         The deck's name, recorded in the marker.
     kind : str
-        The kind of output (``run``, ``study <name>``, ``sweep error``): it replaces only an
-        earlier output of the same kind.
+        The kind of output (``run``, ``study <name>``): it replaces only an earlier output of
+        the same kind.
 
     Raises
     ------

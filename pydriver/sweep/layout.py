@@ -63,6 +63,7 @@ SUBDIRS = ("decks", "runs", "plots", "slurm")
 _TOP_TEMPORARY = re.compile(r"\.(" + "|".join(map(re.escape, (*TOP_FILES, MARKER))) + ")" + HIDDEN_TAIL)
 _DECK_TEMPORARY = re.compile(r"\.\d+\.nml" + HIDDEN_TAIL)
 _PLOT_TEMPORARY = re.compile(r"\..+\.png" + HIDDEN_TAIL)
+_LOOKS = 5                  # looks at a directory another sweep may be writing (check_sweep_directory)
 _SLURM_LOG = re.compile(r"\d+_\d+\.out")
 #: A record being made: files.make_hidden_dir(runs, id), and the run's temporary beside it.
 _HIDDEN_RECORD = re.compile(r"\.(?P<id>\d+)\.(?P<pid>\d+)\.[0-9a-f]{16}")
@@ -199,15 +200,25 @@ def check_sweep_directory(out, manifest: dict | None, what: str = "--out") -> No
     """Refuse ``out`` unless it is new, empty or holds the sweep of ``manifest`` and nothing
     else (its own manifest, if it has one, says which grid points are the sweep's).
 
+    A sweep that writes in ``out`` meanwhile lists each file in its marker before it writes it
+    (:func:`claim`), so a file seen before the marker that lists it was read is seen again with
+    a fresh marker: the directory is refused only when two looks in a row find the same.
+
     Raises
     ------
     SweepError
         Naming what is there, before anything is written.
     """
-    try:
-        check_output_directory(out, SWEEP, what, also_ours=sweep_layout(out, manifest), replaces=False)
-    except OutputError as exc:
-        raise SweepError(str(exc)) from None
+    refusal = None
+    for _ in range(_LOOKS):
+        try:
+            check_output_directory(out, SWEEP, what, also_ours=sweep_layout(out, manifest), replaces=False)
+            return
+        except OutputError as exc:
+            if str(exc) == refusal:
+                break
+            refusal = str(exc)
+    raise SweepError(refusal)
 
 
 def _legacy_files(out: Path) -> set[str]:
