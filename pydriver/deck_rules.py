@@ -43,8 +43,10 @@ def check(deck: Deck) -> None:
     _limits(deck)
     _refinement(deck)
     _memory_budget(deck)
-    design.parameters(deck)           # &design parameters: names, differentiable keys, analysis
+    # The optimiser's keys first: on another analysis they are refused by their own names, before
+    # &design parameters is found missing.
     design_problem.problem(deck)      # analysis = 'design': objective, bounds, constraint, settings
+    design.parameters(deck)           # &design parameters: names, differentiable keys, analysis
 
 
 def _one_of(deck: Deck, keys: list[str], what: str):
@@ -166,6 +168,11 @@ def _rotor(deck: Deck):
             deck.fail("rotor", "table_t", "must start at 0 and increase strictly")
     if deck["case.analysis"] == "flight" and (profile != "constant" or deck["rotor.rpm"] <= 0.0):
         deck.fail("rotor", "profile", "a flight run (periodic steady state) needs a constant rotor speed > 0")
+    if deck["case.analysis"] == "campbell" and profile != "constant":
+        # Each speed of the diagram is the constant speed of the model (analyses/campbell.py); a
+        # run-up or a table had been refused only at the first speed, as a missing model parameter.
+        deck.fail("rotor", "profile", "a Campbell diagram sets the rotor's constant speed at each of its speeds: "
+                                      "give profile = 'constant' (and &campbell rpm_max)")
 
 
 def _blade(deck: Deck):

@@ -33,9 +33,12 @@ def run(model, run_dir=None, restart=None):
         if plans:
             # The parameters' rebuilt models are part of what the sensitivities cost.
             result.summary["sensitivities"]["model_builds_wall_time_s"] = t_plan
-    if "fatigue" in model.deck.groups and "fatigue" not in result.summary:
-        result.summary.setdefault("warnings", []).append(
-            f"&fatigue is not evaluated: analysis '{model.analysis}' has no load history (flight or dynamic has)")
+    # Keys this analysis does not read say so (pydriver/key_scope.py: &fatigue in a static run,
+    # &solver floquet outside flight runs, ...).
+    from pydriver.key_scope import warnings as ignored_key_warnings
+    ignored = ignored_key_warnings(model.deck)
+    if ignored:
+        result.summary.setdefault("warnings", []).extend(ignored)
     from pydriver.analyses.resonance import attach_margins
     attach_margins(model, result)
     from pydriver.analyses.limits import attach_limits

@@ -82,6 +82,7 @@ def base_summary(model, analysis: str, wall: float) -> dict:
         lengths = model.description["bodies"].lengths
         c_beta = float(d["cable.ei"]) / float(np.median(lengths))
     out = {"case": model.case, "deck": model.name, "analysis": analysis, "wall_time_s": wall,
+           **({"description": d["case.description"]} if d["case.description"] else {}),
            "n_bodies": model.n_bodies, "n_coords": model.nq, "n_constraints": model.nc,
            "c_beta_Nm_per_rad": c_beta}
     rot = model.description["rotor"]

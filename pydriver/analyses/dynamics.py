@@ -166,7 +166,8 @@ def dynamic_analysis(model, run_dir=None, restart=None) -> Result:
     last = tail[-1]
     w_end = [float(last[n][-1]) if n in last else 0.0 for n in REACTION_NAMES]
     summary = base_summary(model, "dynamic", time.perf_counter() - t_wall)
-    summary.update(solver=stats, linear_solver=model.linear_solver(), max_constraint_violation_m=float(np.max(g_max)) if model.nc else 0.0,
+    summary.update(solver=stats, linear_solver=model.linear_solver(),
+                   vector_kernels=s["vector_kernels"], max_constraint_violation_m=float(np.max(g_max)) if model.nc else 0.0,
                    reactions=reactions(w_end, model.nc > 0), t_end_s=float(times[-1]), n_samples=int(len(times)),
                    energy_drift_rel=float(np.max(np.abs(energy - energy[0])) / max(abs(energy[0]), 1e-300)),
                    energy_J={"kinetic": float(last["E_kin_J"][-1]), "potential": float(last["E_pot_J"][-1])},

@@ -117,7 +117,8 @@ def flight_analysis(model, run_dir=None) -> Result:
         files["timeseries.csv"] = run_dir.out / "timeseries.csv"
     summary = base_summary(model, "flight", time.perf_counter() - t_wall)
     w_end = [float(ts[n][-1]) if n in ts else 0.0 for n in REACTION_NAMES]
-    summary.update(solver=dict(session.stats), linear_solver=model.linear_solver(), revolutions=len(history) + 1, period_s=period,
+    summary.update(solver=dict(session.stats), linear_solver=model.linear_solver(),
+                   vector_kernels=s["vector_kernels"], revolutions=len(history) + 1, period_s=period,
                    periodic_difference_m=history, periodic_tol_m=tol,
                    forward_speed_m_per_s=float(model.deck["drag.forward_speed"]) if "drag" in model.deck.groups
                    else 0.0,

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from pydriver.key_scope import applies
+
 
 def _largest_strain(result) -> tuple[float, str] | None:
     """(largest |jacket strain|, where) of a run: the flight peaks, a dynamic run's time series,
@@ -68,9 +70,8 @@ def attach_limits(model, result) -> None:
     strain_limit = deck["limits.jacket_strain"]
     life_limit = deck["limits.fatigue_life_hours"]
     rows = judge(result, strain_limit, life_limit)
-    if not rows and strain_limit is None and life_limit is None:
-        return
-    result.summary["limits"] = rows
+    if rows:                            # a run with nothing to judge (Campbell) has no such section
+        result.summary["limits"] = rows
     warnings = []
     for r in rows:
         if r["exceeded"]:
@@ -78,7 +79,8 @@ def attach_limits(model, result) -> None:
                             f"{r['sense']} {_fmt(r['limit'], r['unit'])} ({r['key']})")
     judged = {r["key"] for r in rows}
     for key, limit in (("&limits jacket_strain", strain_limit), ("&limits fatigue_life_hours", life_limit)):
-        if limit is not None and key not in judged:
+        # An analysis that never computes the quantity is said by pydriver/key_scope.py already.
+        if limit is not None and key not in judged and applies(deck, "limits", key.split()[1]):
             warnings.append(f"limit: {key} = {limit:g} is not judged: this {model.analysis} run computes no "
                             + ("jacket strain" if "strain" in key else "fatigue life (&fatigue)"))
     if warnings:                        # no empty list: "no warnings key" means a clean run
