@@ -75,8 +75,9 @@ def main(argv=None) -> int:
     run.add_argument("--report", action="store_true",
                      help="also write report.html: inputs, results and plots on one self-contained page")
     run.add_argument("--vtk", action="store_true",
-                     help="also write a ParaView time series of the cable (flight and dynamic runs): "
-                          "cable.pvd and cable_NNNN.vtu")
+                     help="also write the cable for ParaView: cable.pvd and cable_NNNN.vtu (the time series of a "
+                          "flight or dynamic run, a static run's equilibrium) and, of a modal or Campbell run, "
+                          "each mode as an animation mode<k>.pvd")
     run.add_argument("--restart", metavar="DIR",
                      help="continue the dynamic run in DIR from its end to this deck's t_end (same model; "
                           "&solver checkpoint_interval makes it match the uninterrupted run exactly)")

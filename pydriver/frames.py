@@ -107,7 +107,8 @@ def _streamed_columns(path, names: list[str], periodic: bool, max_frames: int):
 
 
 def cable_frames(result, max_frames: int, timeseries_path=None) -> Frames | None:
-    """The frames of a flight or dynamic run; None for runs without a time series.
+    """The frames of a flight or dynamic run (or a design run's optimum revolution); None for
+    runs without a time series.
 
     Parameters
     ----------
@@ -121,10 +122,12 @@ def cable_frames(result, max_frames: int, timeseries_path=None) -> Frames | None
         the run kept its time series on disk only (``result.timeseries is None``).
     """
     s = result.summary
-    if s["analysis"] not in ("flight", "dynamic"):
+    # A design run on flight evaluations holds the optimum's revolution.
+    analysis = s.get("base_analysis", "") if s["analysis"] == "design" else s["analysis"]
+    if analysis not in ("flight", "dynamic"):
         return None
     n = int(s["n_bodies"])
-    periodic = s["analysis"] == "flight"
+    periodic = analysis == "flight"
     ts = result.timeseries
     rotor = ts is not None and "azimuth_deg" in ts
     if ts is None and timeseries_path is not None and str(timeseries_path).endswith(".csv"):

@@ -30,8 +30,9 @@ def run_deck(path, out=None, plots: bool = False, report: bool = False, vtk: boo
         Also write ``report.html``, one self-contained page with the inputs, results, plots and
         (flight and dynamic runs) an animation of the cable.
     vtk : bool
-        Also write a ParaView time series of the cable (flight and dynamic runs): ``cable.pvd``
-        and ``cable_NNNN.vtu`` (:mod:`pydriver.paraview`).
+        Also write the cable for ParaView (:mod:`pydriver.paraview`): ``cable.pvd`` and
+        ``cable_NNNN.vtu``, the time series of a flight or dynamic run or the equilibrium of a
+        static one, and each mode of a modal or Campbell run as an animation, ``mode<k>.pvd``.
     restart : str or Path, optional
         A finished dynamic run's directory to continue from its end to this deck's ``t_end``
         (:mod:`pydriver.checkpoint`); the deck must describe the same model.  Its files are
@@ -77,7 +78,7 @@ def run_deck(path, out=None, plots: bool = False, report: bool = False, vtk: boo
             on_disk = next((p for p in map(run_dir.path, ("timeseries.h5", "timeseries.csv")) if p.exists()), None)
         if vtk:
             from pydriver.paraview import write_vtk
-            write_vtk(result, run_dir, on_disk)
+            write_vtk(result, run_dir, on_disk, model)
         if report:
             from pydriver.report_html import html_report
             run_dir.path("report.html").write_text(html_report(result, model, on_disk), encoding="utf-8")

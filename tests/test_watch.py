@@ -166,8 +166,86 @@ def test_a_failed_export_leaves_nothing(tmp_path, monkeypatch):
     assert list(tmp_path.iterdir()) == []
 
 
-def test_static_run_has_nothing_to_watch(tmp_path):
-    """A static run has no time series: --vtk writes no cable files, the report no animation."""
+def test_static_run_writes_its_equilibrium(tmp_path):
+    """--vtk on a static run (issue 35: it wrote nothing and said nothing): cable.pvd with one
+    frame at t = 0, the table's joint points and the tip, exactly (float64, tolerance 0), with
+    the table's strain and bending moment; the report has no animation (nothing moves)."""
     res = pydriver.run_deck(INPUTS / "six_link_static.nml", out=tmp_path / "run", report=True, vtk=True)
-    assert not any(name.startswith("cable") for name in res.files)
+    assert _pvd(tmp_path / "run") == [(0.0, "cable_0000.vtu")]
+    assert {"cable.pvd", "cable_0000.vtu"} <= set(res.files)
+    mesh = meshio.read(tmp_path / "run" / "cable_0000.vtu")
+    t = res.table
+    expected = np.vstack([np.column_stack([t["joint_x_m"], t["joint_y_m"], t["joint_z_m"]]), res.summary["tip_m"]])
+    np.testing.assert_array_equal(mesh.points, expected)
+    np.testing.assert_array_equal(mesh.point_data["strain"], np.append(t["strain"], t["strain"][-1]))
+    np.testing.assert_array_equal(mesh.point_data["bending_Nm"], np.append(t["bending_Nm"], t["bending_Nm"][-1]))
     assert read_embedded((tmp_path / "run" / "report.html").read_text(encoding="utf-8")) is None
+
+
+def _mode_frames(out, k):
+    """(timesteps, meshes) of mode<k>.pvd."""
+    root = ET.parse(out / f"mode{k}.pvd").getroot()
+    entries = [(float(d.get("timestep")), d.get("file")) for d in root.iter("DataSet")]
+    return [t for t, _ in entries], [meshio.read(out / f) for _, f in entries]
+
+
+@pytest.fixture(scope="module")
+def modal(tmp_path_factory):
+    out = tmp_path_factory.mktemp("modes") / "run"
+    return pydriver.run_deck(INPUTS / "uh60_part2_modal.nml", out=out, vtk=True), out
+
+
+def test_modal_run_writes_each_mode_as_one_period(modal):
+    """mode1.pvd ... mode12.pvd (the lowest 12 of 14 modes), 24 frames each at timesteps 0,
+    1/24 ... 23/24 of the period, beside the equilibrium's cable.pvd."""
+    res, out = modal
+    assert len(res.summary["frequencies_hz"]) == 14
+    pvds = sorted(n for n in res.files if n.startswith("mode") and n.endswith(".pvd"))
+    assert pvds == sorted(f"mode{k}.pvd" for k in range(1, 13)) and "cable.pvd" in res.files
+    for k in (1, 12):
+        times, meshes = _mode_frames(out, k)
+        assert times == [i / 24 for i in range(24)] and len(meshes) == 24
+        assert f"{res.summary['frequencies_hz'][k - 1]:.6g} Hz" in (out / f"mode{k}.pvd").read_text()
+
+
+@pytest.mark.parametrize("k", [1, 2, 5])
+def test_mode_frames_are_the_mode_shape(modal, k):
+    """Frame theta is P* + a cos(theta) d of the undamped mode's joint displacement d: the frame
+    at 180 deg is the one at 0 mirrored, at 90 deg the equilibrium (cos 90 deg = 6e-17), the
+    largest displacement 10 % of the 0.59 m cable (to round-off), clamp A and clamp B still
+    (below 1e-8 m: central differences with a 1e-6 rad step, measured 1e-9).  The centres of
+    mass between the joint points move as modes.csv says (its columns scaled to a largest
+    component of 1): central differences of the same kinematics, to 1e-5 (modes.csv steps
+    1e-6 along the mass-normalised shape, whose truncation error O(h^2) was measured at up to
+    2.2e-7 here; it does not depend on the CPU)."""
+    res, out = modal
+    _, meshes = _mode_frames(out, k)
+    d = [m.point_data["displacement_m"] for m in meshes]
+    rest = meshio.read(out / "cable_0000.vtu").points
+    np.testing.assert_allclose(meshes[0].points, rest + d[0], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(d[12], -d[0], rtol=0, atol=1e-15)
+    assert np.max(np.abs(d[6])) < 1e-15
+    assert max(np.max(np.linalg.norm(x, axis=1)) for x in d) == pytest.approx(0.1 * 0.590, rel=1e-12)
+    assert np.linalg.norm(d[0][0]) == 0.0 and np.linalg.norm(d[0][-1]) < 1e-8
+    cm = 0.5 * (d[0][:-1] + d[0][1:])
+    cm = cm / np.max(np.abs(cm))
+    modes = res.extra["modes"]
+    n = res.summary["n_bodies"]
+    table = np.array([[modes[f"d{c}{j + 1}"][k - 1] for c in "xyz"] for j in range(n)])
+    np.testing.assert_allclose(cm, table, rtol=0, atol=1e-5)
+
+
+def test_campbell_run_writes_its_tracked_modes_at_the_operating_speed(tmp_path):
+    """The Campbell deck (6 tracked modes, operating range 0 ... 500 rpm): mode1.pvd ...
+    mode6.pvd about the equilibrium at the top of the range, 500 rpm, named in each file; each
+    frame's largest displacement is 10 % of the cable, clamp B still (below 1e-8 m)."""
+    model = Model.from_deck(INPUTS / "uh60_part2_campbell.nml").with_changes({"campbell.n_speeds": 3})
+    res = pydriver.run_deck(model, out=tmp_path / "run", vtk=True)
+    pvds = sorted(n for n in res.files if n.endswith(".pvd"))
+    assert pvds == sorted(f"mode{k}.pvd" for k in range(1, 7))
+    for k in (1, 6):
+        assert "at 500 rpm" in (tmp_path / "run" / f"mode{k}.pvd").read_text()
+        _, meshes = _mode_frames(tmp_path / "run", k)
+        d = [m.point_data["displacement_m"] for m in meshes]
+        assert max(np.max(np.linalg.norm(x, axis=1)) for x in d) == pytest.approx(0.059, rel=1e-12)
+        assert max(np.linalg.norm(x[-1]) for x in d) < 1e-8

@@ -149,6 +149,13 @@ def resolve_degenerate(shapes: np.ndarray, sv: np.ndarray, count: int, next_shap
 
 # -- the diagram ------------------------------------------------------------------------------
 
+def shapes_speed(rpm: np.ndarray, op, operating_rpm) -> int:
+    """The index of the grid speed whose mode shapes a run keeps (``--vtk``): the one nearest the
+    operating speed, a single &campbell operating_rpm, else the top of the operating range."""
+    target = float(operating_rpm[0]) if operating_rpm is not None and len(operating_rpm) == 1 else float(op[1])
+    return int(np.argmin(np.abs(np.asarray(rpm, float) - target)))
+
+
 def crossings(rpm, freqs, harmonics: int, op_range) -> list[dict]:
     """Where a tracked mode's frequency meets k/rev inside the operating range (linear
     interpolation between grid speeds).  Only between speeds where the mode oscillates at
@@ -248,6 +255,7 @@ def solve_speeds(model, rpm: np.ndarray) -> list[tuple]:
                                           s["newton_max_iter"])
             q_prev = q
             mats = model.core.modal_matrices(q, lam)
+            mats["q"] = q                   # the equilibrium they are about (the shapes' --vtk frames)
             try:
                 solved.append((mats, *complex_modes(mats)))
             except np.linalg.LinAlgError as err:
@@ -274,6 +282,8 @@ def campbell_analysis(model) -> Result:
     zero = np.zeros((len(rpm), n_modes), bool)
     tracked, unstable = None, []
     solved = solve_speeds(model, rpm)
+    shown = shapes_speed(rpm, op, c["operating_rpm"])
+    mode_shapes = None
     for i, r in enumerate(rpm):
         mats, sv, shapes, oscillating, zero_stiffness = solved[i]
         if i + 1 < len(rpm):
@@ -298,6 +308,8 @@ def campbell_analysis(model) -> Result:
                                f"n_modes = {n_modes} to follow")
         tracked = shapes[:, pick]
         freqs[i] = np.maximum(sv[pick].imag, 0.0) / (2.0 * np.pi)
+        if i == shown and "q" in mats:
+            mode_shapes = {"rpm": float(r), "q": mats["q"], "shapes": tracked, "f_hz": freqs[i].copy()}
         size = np.abs(sv[pick])
         # A zero-stiffness mode (s = 0) has no damping ratio; 0 as in the modal analysis.
         zetas[i] = np.where(size > 0.0, -sv[pick].real / np.where(size > 0.0, size, 1.0), 0.0)
@@ -326,6 +338,8 @@ def campbell_analysis(model) -> Result:
              "f_hz": freqs.reshape(-1), "zeta": zetas.reshape(-1), "mac": macs.reshape(-1)}
     cross_table = {k: np.array([x[k] for x in found], float) for k in ("mode", "harmonic", "rpm", "frequency_hz")}
     extra = {"tables": {"campbell.csv": table}, "campbell": {"rpm": rpm, "f": freqs, "zeta": zetas}}
+    if mode_shapes is not None:
+        extra["mode_shapes"] = mode_shapes
     if found:
         extra["tables"]["campbell_crossings.csv"] = cross_table
     return Result(summary=summary, extra=extra)
