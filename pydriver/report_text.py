@@ -96,7 +96,8 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
                                                "tip", "decay"))]
         shown = (first or list(q))[:10]
         lines.append("  converged values (Richardson over n = "
-                     + ", ".join(str(n) for n in s["refinement"]["n"]) + "):")
+                     + ", ".join(str(n) for n in s["refinement"]["n"]) + "):"
+                     + ("" if q else " none that is a result (the warnings say why)"))
         for name in shown:
             r = q[name]
             order = (f"order {r['observed_order']:.2f}" if r.get("order_observed", True)

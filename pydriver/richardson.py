@@ -291,3 +291,37 @@ def richardson_table(values: dict[str, tuple[float, float, float]], expected_ord
                      "observed_order": e.observed_order, "order_used": e.order_used,
                      "error_estimate": e.error_estimate, "warning": e.warning})
     return rows
+
+
+def outside_physical_range(e: Extrapolation, low: float = 0.0) -> str | None:
+    """Why the extrapolation of a quantity that cannot be below ``low`` (a speed, a frequency:
+    0) is no result, or None if it may be one.
+
+    Refused are a value below ``low`` (the levels do not converge towards a physical value) and
+    an error estimate larger than the distance of the value from ``low`` (the estimate admits
+    the unphysical side: the levels disagree by more than they converge).  Issue 35: a Campbell
+    diagram whose finest level followed other modes extrapolated crossings to -78.7 rpm and
+    frequencies to -5.0 +- 15 Hz.
+    """
+    if e.extrapolated < low:
+        return f"{e.extrapolated:.4g} is below {low:g}"
+    if e.error_estimate > e.extrapolated - low:
+        return f"its error estimate {e.error_estimate:.3g} exceeds the value {e.extrapolated:.4g}" + \
+            (f" above {low:g}" if low else "")
+    return None
+
+
+def departing_level(values) -> int | None:
+    """The index of the level whose value departs from the others: the value farthest from the
+    levels' median (three or more levels); None for two levels, which cannot tell which."""
+    values = [float(v) for v in values]
+    if len(values) < 3:
+        return None
+    middle = sorted(values)[len(values) // 2]
+    return max(range(len(values)), key=lambda i: abs(values[i] - middle))
+
+
+def level_text(index: int | None, ns) -> str:
+    """``"n = 44"`` for the level ``index`` of the levels' numbers of bodies ``ns``; for None
+    (two levels) ``"n = 11 or n = 22"``."""
+    return f"n = {ns[index]}" if index is not None else " or ".join(f"n = {n}" for n in ns)

@@ -107,3 +107,71 @@ def test_a_crossing_at_one_level_only_is_reported_with_a_warning():
 def test_refinement_still_needs_the_cable_parameters():
     with pytest.raises(DeckError, match="physical cable parameters"):
         radial(8, 3, cable=False)
+
+
+# -- the physical range (issue 35) ---------------------------------------------------------------
+
+def test_a_crossing_extrapolated_below_zero_is_no_result():
+    """The forward-flight cable as a refined Campbell diagram crossed 4/rev at 234.4, 236.1 and
+    0.0119 rpm at n = 11, 22, 44 and wrote the extrapolation -78.7 +- 236 rpm.  Such a crossing
+    keeps its levels' speeds, has no extrapolation (NaN: a blank cell) and, its finest level
+    being the one that departs, no speed of its own; the warning names that level."""
+    rpm = np.linspace(0.0, 300.0, 31)
+    levels = [np.full((31, 1), 4.0 * r / 60.0) for r in (234.4, 236.1, 0.0119)]    # meets 4/rev at r
+    rows, warnings = refine_crossings([(rpm, f) for f in levels], [11, 22, 44], 4, (0.0, 260.0), 2.0)
+    (row,) = [r for r in rows if r["harmonic"] == 4]
+    assert [row["rpm_n11"], row["rpm_n22"], row["rpm_n44"]] == pytest.approx([234.4, 236.1, 0.0119], rel=1e-9)
+    assert np.isnan(row["rpm_extrapolated"]) and np.isnan(row["rpm_error"]) and np.isnan(row["rpm"])
+    (said,) = [w for w in warnings if "physical range" in w]
+    assert "mode 1 x 4/rev" in said and "n = 44 departs" in said and "below 0" in said
+
+
+def test_an_error_bar_larger_than_the_value_is_no_result_and_the_coarse_level_is_named():
+    """Levels 4, 2, 1 Hz halve at every refinement: observed order 1, far from 2, so Richardson
+    extrapolates with the expected order to 0.667 Hz with an error estimate of at least the last
+    change, 1 Hz: larger than the value, no result; the coarse level is farthest from the median.
+    Converging levels 15.0, 15.8, 16.0 Hz (order 2) give 16.067 Hz as before."""
+    from pydriver.analyses.campbell import refine_frequencies
+    conv = refine_frequencies([np.array([[4.0]]), np.array([[2.0]]), np.array([[1.0]])], 2.0)
+    assert np.isnan(conv["extrapolated"][0, 0]) and np.isnan(conv["error"][0, 0]) and conv["refused"][0, 0] == 0
+    fine = refine_frequencies([np.array([[15.0]]), np.array([[15.8]]), np.array([[16.0]])], 2.0)
+    assert fine["refused"][0, 0] == -1 and fine["extrapolated"][0, 0] == pytest.approx(16.0 + 0.2 / 3.0, rel=1e-12)
+
+
+def test_the_forward_flight_cable_as_a_refined_campbell_diagram_writes_no_unphysical_number(tmp_path):
+    """The issue's run (uh60_part2_forward_flight_cable.nml as analysis = 'campbell', n = 11, 22,
+    44): every extrapolated frequency and crossing speed written (campbell.csv,
+    campbell_crossings.csv, summary.json, refinement.csv) is at least 0 with an error estimate
+    no larger than itself, and the warnings say that n = 44 departs (at n = 44 two roots of a
+    nearly critically damped pair, zeta = 1 - 2e-11, come first: the modes are numbered
+    differently there).  The failed run of the issue wrote -78.7 +- 236 rpm and -5.0 +- 15 Hz."""
+    import json
+
+    import csv
+
+    from conftest import INPUTS
+
+    def read_csv(path):                 # blank cells (no value) as NaN
+        with open(path, newline="") as fh:
+            rows = list(csv.reader(fh))
+        names = [h.split(" [")[0] for h in rows[0]]
+        return {n: np.array([float(r[i]) if r[i] else np.nan for r in rows[1:]]) for i, n in enumerate(names)}
+    model = pydriver.Model.from_deck(INPUTS / "uh60_part2_forward_flight_cable.nml").with_changes(
+        {"case.analysis": "campbell", "solver.floquet": False})
+    res = pydriver.run_deck(model, out=tmp_path / "run")
+    out = tmp_path / "run"
+    s = json.loads((out / "summary.json").read_text())
+    pairs = []
+    table = read_csv(out / "campbell.csv")
+    pairs += list(zip(table["f_extrapolated_hz"], table["f_error_hz"]))
+    if (out / "campbell_crossings.csv").exists():
+        cross = read_csv(out / "campbell_crossings.csv")
+        pairs += list(zip(cross["rpm_extrapolated"], cross["rpm_error"]))
+    pairs += [(c["rpm_extrapolated"], c["rpm_error"]) for c in s["crossings"] if c.get("rpm_extrapolated") is not None]
+    pairs += [(q["extrapolated"], q["error_estimate"]) for q in s["refinement"]["quantities"].values()]
+    written = [(v, e) for v, e in pairs if np.isfinite(v)]
+    assert all(v >= 0.0 and e <= v for v, e in written), [p for p in written if not (p[0] >= 0 and p[1] <= p[0])]
+    assert all(c["rpm"] >= 0.0 for c in s["crossings"]) and not any(c["rpm"] == pytest.approx(0.0119, rel=0.01)
+                                                                      for c in s["crossings"])
+    said = [w for w in res.summary["warnings"] if "physical range" in w]
+    assert said and all("n = 44" in w for w in said)

@@ -186,3 +186,40 @@ def test_richardson_table():
     assert rows[0]["warning"] is None and rows[1]["warning"].startswith("oscillating")
     with pytest.raises(ValueError, match="'bad'"):
         richardson_table({"bad": (1.0, 2.0)})
+
+
+# -- the physical range (issue 35) ---------------------------------------------------------------
+
+def test_an_extrapolation_below_zero_or_with_an_error_bar_beyond_it_is_no_result():
+    """234.4, 236.1, 0.0119 rpm (a finest level on other modes) extrapolate to -78.7 rpm: below
+    0.  4, 2, 1 Hz (halving: order 1) extrapolate with the expected order to 0.667 Hz with an
+    error estimate of at least the last change, 1 Hz: larger than the value.  Converging
+    values pass."""
+    from pydriver.richardson import departing_level, level_text, outside_physical_range
+    below = richardson(234.4, 236.1, 0.0119)
+    assert below.extrapolated < 0.0 and "below 0" in outside_physical_range(below)
+    wide = richardson(4.0, 2.0, 1.0)
+    assert wide.extrapolated == pytest.approx(2.0 / 3.0) and wide.error_estimate >= 1.0
+    assert "exceeds the value" in outside_physical_range(wide)
+    assert outside_physical_range(richardson(15.0, 15.8, 16.0)) is None
+    assert outside_physical_range(richardson(15.0, 15.8, 16.0), low=16.5) is not None
+    assert departing_level([234.4, 236.1, 0.0119]) == 2 and departing_level([4.0, 2.0, 1.0]) == 0
+    assert departing_level([1.0, 2.0]) is None
+    assert level_text(2, [11, 22, 44]) == "n = 44" and level_text(None, [11, 22]) == "n = 11 or n = 22"
+
+
+def test_refined_frequencies_outside_the_physical_range_are_left_out():
+    """pydriver.analyses.refinement.extrapolate: a frequency whose levels halve (4, 2, 1 Hz) is
+    no result (not in the quantities, a warning naming it and the coarse level), a converging
+    one (15.0, 15.8, 16.0 Hz) is extrapolated as before; a signed reaction whose error bar
+    exceeds it is a result (it may be near 0)."""
+    from pydriver.analyses.refinement import extrapolate
+    summaries = [{"analysis": "static", "frequencies_hz": [f1, f2], "reactions": {"A": {"F": [fx, 0.0, 0.0],
+                                                                                       "M": [0.0, 0.0, 0.0]}}}
+                 for f1, f2, fx in ((4.0, 15.0, 0.3), (2.0, 15.8, -0.2), (1.0, 16.0, 0.1))]
+    refinement, warnings = extrapolate(summaries, [8, 16, 32], 2.0)
+    q = refinement["quantities"]
+    assert "f1 [Hz]" not in q and q["f2 [Hz]"]["extrapolated"] == pytest.approx(16.0 + 0.2 / 3.0)
+    assert "F_A x [N]" in q
+    (said,) = [w for w in warnings if "physical range" in w]
+    assert "f1 [Hz] (4, 2, 1" in said and "n = 8 departs" in said

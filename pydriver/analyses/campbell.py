@@ -26,7 +26,7 @@ from pydriver.analyses.statics import unforced, unforced_note
 from pydriver.errors import RunError
 from pydriver.motions import RPM
 from pydriver.run_result import Result
-from pydriver.richardson import richardson, richardson_two
+from pydriver.richardson import departing_level, level_text, outside_physical_range, richardson, richardson_two
 from pydriver.schema import lookup
 
 #: Below this MAC between neighbouring speeds the tracking may have swapped modes.  0.9 is the
@@ -369,17 +369,26 @@ def refine_frequencies(freqs: list, expected_order: float) -> dict:
     -------
     dict
         ``extrapolated``, ``error``, ``order`` (n_speeds, n_modes; NaN where a level does not
-        oscillate: an overdamped or zero-stiffness mode has no frequency to extrapolate) and
-        ``doubtful`` (bool: Richardson's warning, not in the asymptotic range or oscillating).
+        oscillate: an overdamped or zero-stiffness mode has no frequency to extrapolate, and
+        where the extrapolation leaves the physical range), ``doubtful`` (bool: Richardson's
+        warning, not in the asymptotic range or oscillating) and ``refused`` (int: -1, or where the
+        extrapolation is below 0 Hz or its error estimate exceeds it,
+        :func:`pydriver.richardson.outside_physical_range`, the index of the level that departs
+        from the others, the finest of two levels).
     """
     f = np.stack([np.asarray(x, float) for x in freqs])
     out = {k: np.full(f.shape[1:], np.nan) for k in ("extrapolated", "error", "order")}
     out["doubtful"] = np.zeros(f.shape[1:], bool)
+    out["refused"] = np.full(f.shape[1:], -1)
     for idx in np.ndindex(*f.shape[1:]):
         values = f[(slice(None), *idx)]
         if not np.all(values > 0.0):
             continue
         e = _extrapolated([float(v) for v in values], expected_order)
+        if outside_physical_range(e) is not None:
+            k = departing_level(values)
+            out["refused"][idx] = len(values) - 1 if k is None else k
+            continue
         out["extrapolated"][idx], out["error"][idx], out["order"][idx] = (e.extrapolated, e.error_estimate,
                                                                           e.observed_order)
         out["doubtful"][idx] = bool(e.warning) and len(values) > 2
@@ -431,7 +440,7 @@ def refine_crossings(diagrams: list, ns: list, harmonics: int, op, expected_orde
     """
     levels = [_by_pair(crossings(rpm, f, harmonics, (float(rpm[0]), float(rpm[-1])))) for rpm, f in diagrams]
     inside = lambda r: op[0] <= r <= op[1]                                     # noqa: E731
-    rows, unmatched = [], []
+    rows, unmatched, refused = [], [], []
     for key in sorted(set().union(*levels)):
         mode, k = key
         lists = [lvl.get(key, []) for lvl in levels]
@@ -439,6 +448,10 @@ def refine_crossings(diagrams: list, ns: list, harmonics: int, op, expected_orde
             for j in range(len(lists[0])):
                 values = [x[j] for x in lists]
                 e = _extrapolated(values, expected_order)
+                why = outside_physical_range(e)
+                if why is not None:
+                    rows += _refused_crossing(mode, k, values, ns, e, why, inside, refused)
+                    continue
                 if not (inside(values[-1]) or inside(e.extrapolated)):
                     continue
                 row = {"mode": mode, "harmonic": k, "rpm": values[-1], "frequency_hz": k * values[-1] / 60.0}
@@ -464,15 +477,41 @@ def refine_crossings(diagrams: list, ns: list, harmonics: int, op, expected_orde
                    warning=why)
         rows.append(row)
         unmatched.append((why, present))
-    rows.sort(key=lambda r: (r["rpm_extrapolated"] if r["matched"] else np.nanmax([r[f"rpm_n{n}"] for n in ns])))
+    rows.sort(key=lambda r: (r["rpm_extrapolated"] if np.isfinite(r["rpm_extrapolated"])
+                             else np.nanmax([r[f"rpm_n{n}"] for n in ns])))
     warnings = [f"refinement: crossing {why}; it is in the operating range at n = {', '.join(map(str, present))}"
                 for why, present in unmatched]
+    if refused:
+        warnings.append("refinement: crossing speeds whose extrapolation leaves the physical range are no result "
+                        "and are not extrapolated (campbell_crossings.csv: blank), nor reported where the finest "
+                        "level is the one that departs: " + "; ".join(refused))
     doubtful = [f"mode {r['mode']} x {r['harmonic']}/rev" for r in rows if r["matched"] and r["warning"]
-                and len(ns) > 2]
+                and len(ns) > 2 and np.isfinite(r["rpm_extrapolated"])]
     if doubtful:
         warnings.append("refinement: crossing speeds not in the asymptotic range (observed order far from "
                         f"{expected_order:g}, or oscillating; error bars widened): " + ", ".join(doubtful))
     return rows, warnings
+
+
+def _refused_crossing(mode, k, values, ns, e, why, inside, refused: list) -> list[dict]:
+    """The row of a crossing whose extrapolation leaves the physical range (issue 35: -78.7 +-
+    236 rpm from 234.4, 236.1 and 0.0119 rpm at n = 11, 22, 44): the levels' speeds, no
+    extrapolation, the finest level's speed as the crossing's only where that level is not the
+    one that departs from the others; its sentence goes to ``refused``.  None (no row) when no
+    level has it in the operating range."""
+    if not any(inside(v) for v in values):
+        return []
+    odd = departing_level(values)
+    finest = values[-1] if odd != len(values) - 1 else float("nan")
+    row = {"mode": mode, "harmonic": k, "rpm": finest, "frequency_hz": k * finest / 60.0}
+    row.update({f"rpm_n{n}": v for n, v in zip(ns, values)})
+    row.update(rpm_extrapolated=float("nan"), rpm_error=float("nan"), rpm_order=float("nan"),
+               f_extrapolated_hz=float("nan"), f_error_hz=float("nan"), f_order=float("nan"), matched=True,
+               warning=f"extrapolated {e.extrapolated:.4g} +- {e.error_estimate:.3g} rpm: {why}")
+    refused.append(f"mode {mode} x {k}/rev ({', '.join(f'{v:.4g}' for v in values)} rpm at n = "
+                   f"{', '.join(map(str, ns))} extrapolate to {e.extrapolated:.4g} +- {e.error_estimate:.3g} rpm: "
+                   f"{why}; {level_text(odd, ns)} departs from the others)")
+    return [row]
 
 
 def _json_number(x) -> float | None:
@@ -514,7 +553,7 @@ def refine_diagram(results: list, ns: list, expected_order: float) -> tuple[dict
                       for r in rows if np.isfinite(r["rpm"])]
     quantities = {}
     for r in rows:
-        if not r["matched"]:
+        if not r["matched"] or not np.isfinite(r["rpm_extrapolated"]):
             continue
         name = f"mode {r['mode']} x {r['harmonic']}/rev [rpm]"
         quantities[name] = {"values": [r[f"rpm_n{n}"] for n in ns], "extrapolated": r["rpm_extrapolated"],
@@ -523,16 +562,35 @@ def refine_diagram(results: list, ns: list, expected_order: float) -> tuple[dict
     lowest = [r.summary["lowest_frequency_hz"] for r in results]
     if all(x > 0.0 for x in lowest):
         e = _extrapolated(lowest, expected_order)
-        quantities["lowest f in range [Hz]"] = {
-            "values": lowest, "extrapolated": e.extrapolated, "observed_order": e.observed_order,
-            "order_observed": len(ns) > 2, "error_estimate": e.error_estimate, "warning": e.warning or ""}
+        why = outside_physical_range(e)
+        if why is None:
+            quantities["lowest f in range [Hz]"] = {
+                "values": lowest, "extrapolated": e.extrapolated, "observed_order": e.observed_order,
+                "order_observed": len(ns) > 2, "error_estimate": e.error_estimate, "warning": e.warning or ""}
+        else:
+            warnings.append(f"refinement: the lowest frequency in the operating range, {', '.join(f'{x:.4g}' for x in lowest)} "
+                            f"Hz at n = {', '.join(map(str, ns))}, extrapolates to {e.extrapolated:.4g} +- "
+                            f"{e.error_estimate:.3g} Hz: {why}; no result (not in refinement.csv); "
+                            f"{level_text(departing_level(lowest), ns)} departs from the others")
     if np.any(conv["doubtful"]):
         modes = sorted({int(m) + 1 for m in np.nonzero(conv["doubtful"])[1]})
         warnings.append(f"refinement: at {int(np.count_nonzero(conv['doubtful']))} of {conv['doubtful'].size} "
                         "(speed, mode) points of the diagram the frequencies are not in the asymptotic range "
                         f"(observed order far from {expected_order:g}, or oscillating; error bars widened): "
                         f"modes {', '.join(map(str, modes))} (campbell.csv f_order)")
-    missing = ~np.isfinite(conv["extrapolated"]) & (freqs[-1] > 0.0)
+    refused = conv["refused"] >= 0
+    if np.any(refused):
+        worst = np.bincount(conv["refused"][refused], minlength=len(ns))
+        odd = int(np.argmax(worst)) if len(ns) > 2 else None
+        modes = sorted({int(m) + 1 for m in np.nonzero(refused)[1]})
+        warnings.append(f"refinement: at {int(np.count_nonzero(refused))} of {refused.size} (speed, mode) points the "
+                        "extrapolated frequency leaves the physical range (below 0 Hz, or an error estimate larger "
+                        f"than the frequency): no result, not extrapolated there (campbell.csv f_extrapolated_hz "
+                        f"blank), modes {', '.join(map(str, modes))}; the level that departs from the others: "
+                        f"{level_text(odd, ns)}" + (f" at {int(worst[odd])} of them" if odd is not None else "")
+                        + " (modes numbered by frequency at the first speed: a level with other modes at the bottom "
+                        "numbers them differently)")
+    missing = ~np.isfinite(conv["extrapolated"]) & (freqs[-1] > 0.0) & ~refused
     if np.any(missing):
         warnings.append(f"refinement: {int(np.count_nonzero(missing))} (speed, mode) points oscillate at n = {ns[-1]} "
                         "but not at every coarser level: not extrapolated there (campbell.csv f_extrapolated_hz NaN)")

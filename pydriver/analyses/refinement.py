@@ -25,7 +25,8 @@ import numpy as np
 
 from pydriver.errors import DeckError, RunError
 from pydriver.progress import stage
-from pydriver.richardson import TWO_GRID_SAFETY, richardson, richardson_two
+from pydriver.richardson import (TWO_GRID_SAFETY, departing_level, level_text, outside_physical_range,
+                                 richardson, richardson_two)
 from pydriver.schema import GROUPS
 
 #: Relative size below which a quantity is taken to be zero by symmetry and not extrapolated
@@ -102,6 +103,13 @@ def _scalars(summary: dict) -> dict:
     return out
 
 
+def _non_negative(name: str) -> bool:
+    """Whether a quantity of :func:`_scalars` cannot be negative (a frequency, a peak or an
+    amplitude, a DEL, a life), so that its extrapolation must not be either
+    (:func:`pydriver.richardson.outside_physical_range`); reactions and tip coordinates are signed."""
+    return name.startswith(("f", "peak", "DEL", "decay")) or name.endswith("max |.|")
+
+
 def extrapolate(summaries: list, ns: list, expected_order: float) -> tuple[dict, list]:
     """summary['refinement'] and its warnings from the summaries of the runs at ns = (n, 2n, 4n ...).
 
@@ -113,17 +121,22 @@ def extrapolate(summaries: list, ns: list, expected_order: float) -> tuple[dict,
     """
     per_run = [_scalars(s) for s in summaries]
     names = [k for k in per_run[-1] if all(k in p for p in per_run)]
-    quantities, doubtful = {}, {"oscillating": [], "order": []}
+    quantities, doubtful, refused = {}, {"oscillating": [], "order": []}, []
     for name in names:
         values = [float(p[name]) for p in per_run]
         if max(abs(v) for v in values) <= NEGLIGIBLE * max(1.0, max(abs(float(x)) for x in per_run[-1].values())):
             continue
+        e = (richardson_two(*values, expected_order=expected_order) if len(values) == 2 else
+             richardson(*values[-3:], expected_order=expected_order))
+        why = outside_physical_range(e) if _non_negative(name) else None
+        if why is not None:
+            refused.append(f"{name} ({', '.join(f'{v:.4g}' for v in values)} -> {e.extrapolated:.4g} +- "
+                           f"{e.error_estimate:.3g}: {why}; {level_text(departing_level(values), ns)} departs)")
+            continue
         if len(values) == 2:
-            e = richardson_two(*values, expected_order=expected_order)
             quantities[name] = {"values": values, "extrapolated": e.extrapolated, "observed_order": e.observed_order,
                                 "order_observed": False, "error_estimate": e.error_estimate, "warning": ""}
             continue
-        e = richardson(*values[-3:], expected_order=expected_order)
         quantities[name] = {"values": values, "extrapolated": e.extrapolated, "observed_order": e.observed_order,
                             "order_observed": True, "error_estimate": e.error_estimate, "warning": e.warning or ""}
         if e.warning:
@@ -141,6 +154,9 @@ def extrapolate(summaries: list, ns: list, expected_order: float) -> tuple[dict,
     if doubtful["oscillating"]:
         warnings.append("refinement: non-monotonic convergence (error estimates unreliable) for "
                         + ", ".join(doubtful["oscillating"]))
+    if refused:
+        warnings.append("refinement: extrapolations outside the physical range (below 0, or an error estimate "
+                        "larger than the value) are no result, left out of refinement.csv: " + "; ".join(refused))
     return {"n": ns, "expected_order": expected_order, "quantities": quantities}, warnings
 
 
