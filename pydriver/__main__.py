@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -22,7 +23,6 @@ def _exit_on_termination():
     """SIGTERM and SIGHUP end the command like Ctrl-C: as an exception, so that a run's
     temporary directory is removed on the way out (the default action ends the process at
     once and left 10 MB of partial time series behind, issue 20)."""
-    import os
     import signal
     import threading
 
@@ -64,7 +64,33 @@ def _default_outputs(decks: list[str]) -> dict:
     return {deck: out for out, deck in outs.items()}
 
 
+#: The exit status of a command whose reader went away (``run --json | head``): 128 + SIGPIPE,
+#: what a Unix tool ended by the signal reports, so that ``set -o pipefail`` sees what it sees
+#: with ``yes | head``.
+BROKEN_PIPE_STATUS = 141
+
+
 def main(argv=None) -> int:
+    """The command line; returns the exit status."""
+    try:
+        status = _main(argv)
+        sys.stdout.flush()             # a closed pipe shows here, not in Python's exit handler
+        return status
+    except BrokenPipeError:
+        # The reader has gone (``--json | head -c 10``): stop quietly, as a Unix tool ended by
+        # SIGPIPE would, instead of a traceback and, at exit, Python's second complaint about
+        # flushing stdout.  A run's files were committed before anything was printed.
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                os.dup2(devnull, stream.fileno())
+            except (OSError, ValueError):
+                pass
+        return BROKEN_PIPE_STATUS
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command line's parser (every subcommand and flag)."""
     parser = argparse.ArgumentParser(prog="rotorcable", description=__doc__)
     parser.add_argument("--version", action="version", version=f"rotorcable {_version()}")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -85,7 +111,9 @@ def main(argv=None) -> int:
     loud = run.add_mutually_exclusive_group()
     loud.add_argument("-v", "--verbose", action="store_true",
                       help="progress messages on stderr, one per line with the elapsed time (also when not a terminal)")
-    loud.add_argument("-q", "--quiet", action="store_true", help="no progress output")
+    loud.add_argument("-q", "--quiet", action="store_true",
+                      help="print nothing: no progress, no summary (errors still go to stderr; with --json the "
+                           "JSON alone)")
     run.add_argument("--refine", action="store_true",
                      help="run the cable at n, 2n, 4n bodies and print every number with its Richardson "
                           "extrapolation and error estimate (&refinement levels = 3; needs &cable)")
@@ -103,6 +131,11 @@ def main(argv=None) -> int:
     init.add_argument("--like", default="uh60_part2_forward_flight_cable",
                       help="the example to start from (see `rotorcable examples`)")
     _add_sweep_parsers(sub)
+    return parser
+
+
+def _main(argv=None) -> int:
+    parser = build_parser()
     args = parser.parse_args(argv)
     if args.command in ("examples", "init"):
         return _examples_command(args)
@@ -149,7 +182,7 @@ def main(argv=None) -> int:
             continue
         if args.json:
             print(json.dumps(res.summary, indent=1))
-        else:
+        elif not args.quiet:
             from pydriver.report_text import text_summary
             print(text_summary(res.summary, res.files))
     return status

@@ -178,7 +178,7 @@ def test_limits_are_flagged(tmp_path):
     text = (INPUTS / "uh60_part2_forward_flight_cable.nml").read_text()
     text = re.sub(r"(?ims)^&refinement\b.*?^\s*/", "", text)           # one level: the check, not convergence
     deck.write_text(text + "\n&limits\n  jacket_strain = 0.02\n  fatigue_life_hours = 1000\n/\n")
-    cmd = [sys.executable, "-m", "pydriver", "run", str(deck), "--out", str(tmp_path / "o"), "--report", "-q"]
+    cmd = [sys.executable, "-m", "pydriver", "run", str(deck), "--out", str(tmp_path / "o"), "--report"]
     done = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
     assert done.returncode == 0, done.stderr
     assert "limit at most 0.0200 (2.00 %): NOT MET" in done.stdout
