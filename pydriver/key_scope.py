@@ -271,12 +271,12 @@ SCOPES: tuple[Scope, ...] = (
     # harmonics and operating speed, not the margins' own margin_percent
     Scope(("resonance",), ("modal", "campbell", "flight"),
           lambda deck, a: a == "design" or _operating_speed(deck, a),
-          "with an operating speed (a turning rotor at a constant speed, &resonance operating_rpm or, in a "
-          "Campbell run, &campbell operating_rpm)", design="acts"),
+          "in modal, Campbell and flight runs with an operating speed (a turning rotor at a constant speed, "
+          "&resonance operating_rpm or, in a Campbell run, &campbell operating_rpm)", design="acts"),
     Scope(("resonance.margin_percent",), ("modal", "campbell", "flight"), design="ignored"),
     Scope(("resonance.harmonics", "resonance.operating_rpm"), ("modal", "campbell", "flight"),
           lambda deck, a: a != "design" or deck["design.frequency_margin_percent"] is not None,
-          "in a design run with &design frequency_margin_percent", design="acts"),
+          "with &design frequency_margin_percent in a design run", design="acts"),
     Scope(("drag",), when=_stream_or_turning,
           condition="in a static or modal run with a stream (stream_velocity, forward_speed) or a turning "
                     "rotor (drag is quadratic in the velocity through the air)"),
@@ -327,6 +327,22 @@ class Ignored:
         names = f"&{self.group} " + ", ".join(self.keys) if self.keys else f"&{self.group}"
         verb = "apply" if len(self.keys) > 1 else "applies"
         return f"{names} {verb} {self.reason}: ignored in this {_runs((self.analysis,))[:-1]}"
+
+
+def describe(group: str, key: str) -> str:
+    """Where ``&group key`` acts, in words for the deck reference (empty: everywhere), e.g.
+    ``"Acts in flight runs only."`` (:func:`pydriver.schema.reference_markdown`)."""
+    where, conditions = set(ANALYSES), []
+    for scope in SCOPES:
+        if scope.names(group, key):
+            design = scope.design == "acts" or (scope.design == "base" and set(scope.analyses) == set(RUNS))
+            where &= set(scope.analyses) | ({"design"} if design else set())
+            conditions += [scope.condition] if scope.condition else []
+    runs = _runs(tuple(a for a in ANALYSES if a in where)) if where else "no runs"
+    if conditions:
+        text = f"Acts only {'; '.join(conditions)}" + (f" (in {runs})" if where != set(ANALYSES) else "")
+        return text if text.endswith(".") else text + "."
+    return f"Acts in {runs} only." if where != set(ANALYSES) else ""
 
 
 def base_analysis(deck: Deck) -> str:

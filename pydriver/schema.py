@@ -462,6 +462,9 @@ def reference_markdown() -> str:
              "`n*value` (e.g. `11*12.0`).  Repeat counts are at most 20000, and numbers are plain "
              "Fortran reals (`1.2.3` and the letterless exponent `1-70` are refused).  "
              f"Required groups: {', '.join('&' + g for g in REQUIRED_GROUPS)}.", ""]
+    from pydriver.key_scope import describe        # where each key acts (its table reads this one)
+    lines[-2] += ("  Where a key does not act everywhere its meaning says so (*Acts in ... only*, from "
+                  "`pydriver/key_scope.py`); a run that sets it where it does not act warns.")
     for group, keys in GROUPS.items():
         lines += [f"## &{group}", "", GROUP_DOCS.get(group, ""), "",
                   "| key | type | shape | unit | allowed | default | meaning |",
@@ -471,6 +474,8 @@ def reference_markdown() -> str:
             allowed = key.range_text().replace("|", "or")        # a bare | would split the cell
             shape = key.shape + ("*" if not key.broadcast and key.shape in ("body", "joint") else "")
             doc = key.doc + (" *Differentiable* (`&design parameters`)." if key.differentiable else "")
+            acts = describe(group, key.name).replace("|", "or")
+            doc += f" *{acts}*" if acts else ""
             lines.append(f"| `{key.name}` | {key.type} | {shape} | {key.unit} | {allowed} "
                          f"| {default} | {doc} |")
         lines.append("")
