@@ -497,8 +497,8 @@ def _refused_crossing(mode, k, values, ns, e, why, inside, refused: list) -> lis
     """The row of a crossing whose extrapolation leaves the physical range (issue 35: -78.7 +-
     236 rpm from 234.4, 236.1 and 0.0119 rpm at n = 11, 22, 44): the levels' speeds, no
     extrapolation, the finest level's speed as the crossing's only where that level is not the
-    one that departs from the others; its sentence goes to ``refused``.  None (no row) when no
-    level has it in the operating range."""
+    one that departs from the others; its sentence goes to ``refused``.  No row when no level
+    has it in the operating range."""
     if not any(inside(v) for v in values):
         return []
     odd = departing_level(values)
