@@ -215,10 +215,9 @@ SCOPES: tuple[Scope, ...] = (
     Scope(("shape.gamma_rate_deg", "shape.beta_rate_deg"), ("dynamic",),
           lambda deck, a: deck["case.start"] == "shape", "with &case start = 'shape' (a run from the equilibrium "
                                                          "starts at rest)"),
-    # dampers: no part of an equilibrium; they act in its modes, in time, and while settling
-    Scope(("springs.d_gamma", "springs.d_beta", "springs.d_twist", "cable.damping_time"), RUNS,
-          lambda deck, a: a != "static" or _settles(deck, a),
-          "with &solver static_method = 'settle' (a damper does not move an equilibrium)"),
+    # dampers: they do not move an equilibrium, but act in its stability (the damped growth rate of
+    # every static result, pydriver/analyses/stability.py), its modes, in time and while settling:
+    # every run reads them (no row).
     # rest angles: of a spring (the thesis's zy joint; a Cardan chain rests straight, deck_rules)
     Scope(("springs.rest_gamma_deg",), when=lambda deck, a: bool(np.any(deck["springs.c_gamma"] != 0.0)),
           condition="with a spring on gamma (&springs c_gamma)"),
@@ -293,6 +292,7 @@ SCOPES: tuple[Scope, ...] = (
     Scope(("solver.t_end",), INTEGRATING, lambda deck, a: a == "dynamic" or _settles(deck, a),
           "as the end of a dynamic run, or the settling time with &solver static_method = 'settle'"),
     Scope(("solver.dt_out", "solver.checkpoint_interval", "solver.output_format"), ("dynamic",)),
+    Scope(("solver.error_estimate",), ("dynamic", "flight")),
     Scope(("solver.rtol", "solver.atol", "solver.h_max", "solver.max_steps", "solver.linear_solver",
            "solver.jacobian_max_age", "solver.vector_kernels"), INTEGRATING, _integrates,
           "in a time integration: dynamic and flight runs, or settling (&solver static_method = 'settle')"),

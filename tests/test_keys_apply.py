@@ -244,6 +244,7 @@ VALUES = {
     "solver.jacobian_max_age": (1, {}),
     "solver.vector_kernels": ("sundials", {}),
     "solver.checkpoint_interval": (0.02, {}),
+    "solver.error_estimate": (False, {}),
     "solver.periodic_method": ("shooting", {}),
     "solver.floquet": (True, {}),
     "solver.periodic_tol": (1.0e-2, {}),

@@ -518,8 +518,11 @@ def flight_sensitivities(model, plans, period: float, start: dict, ts: dict, wor
     # The rotor speed's columns: s(T) = s(0) + (T/p) y'(0) (module doc, "The rotor speed").
     speed = np.array([is_rotor_speed(pl) for pl in plans])
     rates0 = model.core.consistent_start(q0, v0, 0.0)
-    secular = np.outer(np.concatenate([rates0["v"], rates0["vdot"]]),
-                       np.where(speed, period / np.array([pl.parameter.value for pl in plans]), 0.0))
+    # Only the rotor speed's columns divide by their value (never 0: a flight's speed is > 0);
+    # another parameter's value may be 0 and is not divided by.
+    per_speed = np.zeros(len(plans))
+    per_speed[speed] = period / np.array([pl.parameter.value for pl, is_speed in zip(plans, speed) if is_speed])
+    secular = np.outer(np.concatenate([rates0["v"], rates0["vdot"]]), per_speed)
     d_x = np.vstack([first["sq"][:, -1, :], first["sv"][:, -1, :]]) - secular
     if "phi" in start:
         basis, phi = start["basis"], start["phi"]

@@ -57,7 +57,7 @@ def revolutions_needed(model, hover) -> tuple[float, int | None]:
         return 2.0, None
     decay = zeta[oscillating] * 2.0 * np.pi * f[oscillating] / np.sqrt(np.maximum(1.0 - zeta[oscillating] ** 2,
                                                                                    1e-300)) * period
-    shrink = np.log(START_TRANSIENT_SHARE * float(model.deck["chain.total_length"]) / float(s["periodic_tol"]))
+    shrink = np.log(START_TRANSIENT_SHARE * float(np.sum(model.description["bodies"].lengths)) / float(s["periodic_tol"]))
     with np.errstate(divide="ignore"):
         revs = np.where(decay > 0.0, max(shrink, 0.0) / decay, np.inf)
     k = int(np.argmax(revs))

@@ -96,7 +96,7 @@ def distance_from_start(model, q, t: float = 0.0) -> dict:
     joint angles' largest change [deg]."""
     start = model.core.consistent_start(model.q0, np.zeros_like(model.q0), t)["q"]
     moved = np.linalg.norm(model.core.shape(q, t)["joints"] - model.core.shape(start, t)["joints"], axis=1)
-    length = float(model.deck["chain.total_length"])
+    length = float(np.sum(model.description["bodies"].lengths))
     return {"largest_point_displacement_m": float(np.max(moved)),
             "largest_point_displacement_share_of_length": float(np.max(moved) / length),
             "largest_angle_change_deg": float(np.degrees(np.max(np.abs(q - start), initial=0.0)))}
