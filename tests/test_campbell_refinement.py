@@ -173,5 +173,8 @@ def test_the_forward_flight_cable_as_a_refined_campbell_diagram_writes_no_unphys
     assert all(v >= 0.0 and e <= v for v, e in written), [p for p in written if not (p[0] >= 0 and p[1] <= p[0])]
     assert all(c["rpm"] >= 0.0 for c in s["crossings"]) and not any(c["rpm"] == pytest.approx(0.0119, rel=0.01)
                                                                       for c in s["crossings"])
-    said = [w for w in res.summary["warnings"] if "physical range" in w]
-    assert said and all("n = 44" in w for w in said)
+    # The nearly critically damped pair is no longer counted as oscillating (linear_modes.
+    # CRITICAL_SHARE): the modes are numbered alike at every level and no number leaves the
+    # physical range; the rule that drops one that would is checked in test_richardson.py.
+    said = [w for w in res.summary.get("warnings", []) if "physical range" in w]
+    assert not said, said

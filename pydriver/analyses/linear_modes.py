@@ -35,6 +35,10 @@ from pydriver.errors import RunError
 STIFFNESS_ROUNDOFF_EPS = 1.0e4
 
 
+#: A root with |Im s| at most this share of |s| does not oscillate (complex_modes).
+CRITICAL_SHARE = 1.0e-4
+
+
 def stiffness_floor(k: np.ndarray, shapes: np.ndarray) -> np.ndarray:
     """Per shape x (a column of ``shapes``, M_r-orthonormal), how large x^T K x can come out of
     round-off alone: |x^T dK x| <= |dK| |x|^2 with |dK| = STIFFNESS_ROUNDOFF_EPS eps max|K|.
@@ -148,7 +152,11 @@ def complex_modes(mats: dict, n_zero: int | None = None) -> tuple[np.ndarray, np
         smallest = np.argsort(np.abs(s))
         near = int(np.count_nonzero(np.abs(s) <= 1e-4 * max(1.0, np.max(np.abs(s)))))
         keep[smallest[:min(max(near, n_zero), 2 * n_zero)]] = False
-    tiny = 1e-9 * max(1.0, np.max(np.abs(s)))
+    # A root oscillates when its imaginary part is more than round-off of the spectrum AND more than
+    # 1e-4 of its own size (damping ratio below 1 - 5e-9): a nearly critically damped pair splits
+    # into Im s ~ sqrt(perturbation) and at n = 44 came out as a "1 mHz mode" (zeta = 1 - 2.5e-11)
+    # that the Campbell diagram then tracked as modes 1 and 2 (issue 35).
+    tiny = np.maximum(1e-9 * max(1.0, np.max(np.abs(s))), CRITICAL_SHARE * np.abs(s))
     osc = keep & (s.imag > tiny)
     real = keep & (np.abs(s.imag) <= tiny)
     order = np.concatenate([np.flatnonzero(osc)[np.argsort(s.imag[osc])], np.flatnonzero(real)])
