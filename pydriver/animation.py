@@ -29,14 +29,13 @@ from pathlib import Path
 
 import numpy as np
 
+from pydriver.analyses.registry import reported
 from pydriver.frames import cable_frames
 
 #: Positions are embedded as integers of this length [m].
 UNIT_M = 1.0e-4
 #: At most this many frames of a dynamic run (a flight revolution of more samples, too).
 MAX_FRAMES = 720
-#: Playback: a revolution or a dynamic record in this many seconds at speed 1.
-PLAYBACK_S = {"flight": 6.0, "dynamic": 10.0}
 
 
 def _g3(values) -> str:
@@ -88,7 +87,7 @@ def animation_data(result, model=None, timeseries_path=None) -> dict | None:
             "strain": frames.strain, "strain_max": float(np.max(frames.strain)) if frames.strain.size else 0.0,
             "damage": frames.damage, "hub": hub, "clamp_b": bool(s.get("n_constraints", 0)),
             "periodic": frames.periodic, "axis": axis, "rows": frames.rows.tolist(),
-            "frame_ms": max(16.0, 1000.0 * PLAYBACK_S[s["analysis"]] / max(nf, 1)),
+            "frame_ms": max(16.0, 1000.0 * reported(s).playback_s / max(nf, 1)),
             "view": [-120.0, 30.0], "diameter_m": diameter}
 
 

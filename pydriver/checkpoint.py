@@ -36,6 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pydriver.analyses.registry import analysis_of
 from pydriver.errors import DeckError, RunError
 
 FILE = "checkpoint.npz"
@@ -127,8 +128,8 @@ def continuation(model, directory) -> Checkpoint:
     from pydriver.analyses.dynamics import column_names
     from pydriver.analyses.output_grid import output_grid
 
-    if model.analysis != "dynamic":           # before the files: their sizes are a dynamic run's
-        model.deck.fail("case", "analysis", "--restart continues a dynamic run; this deck's analysis is "
+    if not analysis_of(model).restartable:           # before the files: their sizes are a dynamic run's
+        model.deck.fail("case", "analysis", "--restart continues a run with a checkpoint (a dynamic run); this deck's analysis is "
                                             f"'{model.analysis}'")
     ck = read(directory, model)
     check_same_model(model, ck)
@@ -234,8 +235,8 @@ def check_same_model(model, ck: Checkpoint) -> None:
     """Refuse a continuation whose deck describes another model than the checkpointed run:
     every key of either deck but :data:`FREE_KEYS` must be in both and equal, and the
     checkpoint's t must be its deck's t_end (the end of that run)."""
-    if model.analysis != "dynamic":
-        model.deck.fail("case", "analysis", "--restart continues a dynamic run; this deck's analysis is "
+    if not analysis_of(model).restartable:
+        model.deck.fail("case", "analysis", "--restart continues a run with a checkpoint (a dynamic run); this deck's analysis is "
                                             f"'{model.analysis}'")
     new = _plain(model.deck.values)
     stored = ck.deck_values

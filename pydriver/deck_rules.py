@@ -12,6 +12,7 @@ import math
 import numpy as np
 
 from pydriver import design, design_problem
+from pydriver.analyses.registry import ANALYSES, analysis_of
 from pydriver.deckfile import Deck
 
 #: Largest number of output samples of one run.  At one sample per 1e-4 s this is a week of
@@ -31,7 +32,7 @@ def columns_per_sample(n_bodies: int) -> int:
 def check(deck: Deck) -> None:
     """Apply every rule; the first violation raises."""
     if not deck.has("case.analysis"):
-        deck.fail("case", "analysis", "is required: 'static', 'dynamic', 'modal', 'flight' or 'campbell'")
+        deck.fail("case", "analysis", "is required: " + ", ".join(f"'{a}'" for a in ANALYSES))
     _chain(deck)
     _joint_constants(deck)
     _clamp_b(deck)
@@ -138,7 +139,7 @@ def _loads(deck: Deck):
     if body > 0:
         if not deck["loads.pulse_end"] > deck["loads.pulse_start"]:
             deck.fail("loads", "pulse_end", "must be later than pulse_start")
-        if deck["case.analysis"] == "dynamic" and deck["loads.pulse_start"] >= deck["solver.t_end"]:
+        if analysis_of(deck).time_axis == "t_end" and deck["loads.pulse_start"] >= deck["solver.t_end"]:
             deck.fail("loads", "pulse_start", f"the pulse starts at {deck['loads.pulse_start']:g} s, at or after "
                                               f"the end of the run (t_end = {deck['solver.t_end']:g} s)")
     if deck["clamp_b.active"] and np.any(deck["loads.tip_force"] != 0.0):
@@ -147,8 +148,7 @@ def _loads(deck: Deck):
 
 def _rotor(deck: Deck):
     if "rotor" not in deck.groups:
-        if deck["case.analysis"] in ("flight", "campbell") and not (deck.has("loads.rotor_rpm")
-                                                                     and deck["loads.rotor_rpm"] > 0):
+        if analysis_of(deck).needs_rotor and not (deck.has("loads.rotor_rpm") and deck["loads.rotor_rpm"] > 0):
             deck.fail("rotor", "rpm", f"analysis '{deck['case.analysis']}' needs a turning rotor (&rotor rpm)")
         return
     if deck.has("loads.rotor_rpm"):
@@ -166,9 +166,9 @@ def _rotor(deck: Deck):
                                             "at least 3 points")
         if t[0] != 0.0 or np.any(np.diff(t) <= 0.0):
             deck.fail("rotor", "table_t", "must start at 0 and increase strictly")
-    if deck["case.analysis"] == "flight" and (profile != "constant" or deck["rotor.rpm"] <= 0.0):
+    if analysis_of(deck).periodic and (profile != "constant" or deck["rotor.rpm"] <= 0.0):
         deck.fail("rotor", "profile", "a flight run (periodic steady state) needs a constant rotor speed > 0")
-    if deck["case.analysis"] == "campbell" and profile != "constant":
+    if analysis_of(deck).sweeps_speed and profile != "constant":
         # Each speed of the diagram is the constant speed of the model (analyses/campbell.py); a
         # run-up or a table had been refused only at the first speed, as a missing model parameter.
         deck.fail("rotor", "profile", "a Campbell diagram sets the rotor's constant speed at each of its speeds: "
@@ -195,12 +195,12 @@ def _blade(deck: Deck):
         for key in ("table_flap_deg", "table_lag_deg", "table_pitch_deg"):
             if deck[f"blade.{key}"] is not None and len(deck[f"blade.{key}"]) != len(t):
                 deck.fail("blade", key, f"needs {len(t)} values (one per table time)")
-    elif deck["case.analysis"] == "flight" and deck["blade.lag_extra_deg"] != 0.0:
+    elif analysis_of(deck).periodic and deck["blade.lag_extra_deg"] != 0.0:
         deck.fail("blade", "lag_extra_deg", "an oscillation at its own frequency makes the motion non-periodic "
                                             "in the azimuth: a flight run cannot reach a periodic steady "
                                             "state with it (use a dynamic run)")
     for g in moving:
-        if deck["case.analysis"] == "flight" and deck["blade.motion"] == "table":
+        if analysis_of(deck).periodic and deck["blade.motion"] == "table":
             deck.fail("blade", "motion", "a flight run needs a periodic blade motion (Fourier series)")
         if g == "clamp_b" and not deck["clamp_b.active"]:
             deck.fail("clamp_b", "moves_with", "clamp B is not active")
@@ -208,7 +208,7 @@ def _blade(deck: Deck):
 
 def _output_times(deck: Deck):
     interval = deck["solver.checkpoint_interval"]
-    if deck["case.analysis"] != "dynamic":
+    if not analysis_of(deck).restartable:
         if interval:
             deck.fail("solver", "checkpoint_interval", "checkpoints are for dynamic runs")
         return
@@ -226,11 +226,11 @@ def _output_times(deck: Deck):
 def _memory_budget(deck: Deck):
     """Refuse a run whose time series in memory would exceed MEMORY_BUDGET_VALUES, before any
     allocation (issue 20: samples_per_rev = 3e9 tried to allocate 22 GiB)."""
-    analysis = deck["case.analysis"]
+    time_axis = analysis_of(deck).time_axis
     n = deck.n_bodies * 2 ** (deck["refinement.levels"] - 1)      # the finest refinement level
-    if analysis == "flight":
+    if time_axis == "revolutions":
         samples, key = deck["solver.samples_per_rev"] + 1, "samples_per_rev"
-    elif analysis == "dynamic" and "fatigue" in deck.groups:     # rainflow needs the whole history
+    elif time_axis == "t_end" and "fatigue" in deck.groups:     # rainflow needs the whole history
         samples, key = deck["solver.t_end"] / deck["solver.dt_out"] + 1, "dt_out"
     else:
         return

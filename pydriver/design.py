@@ -18,16 +18,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pydriver.analyses.registry import ANALYSES as REGISTERED
 from pydriver.deckfile import Deck
 from pydriver.errors import DeckError
 from pydriver.schema import GROUPS, lookup
 
 #: At most this many parameters (each costs two model builds and two residuals).
 MAX_PARAMETERS = 64
-#: The analyses that give sensitivities in this version (issue 24: static and modal; flight, with the
-#: parameters that leave the supports and the period alone), and the
-#: optimiser built on them (pydriver/analyses/optimiser.py).
-ANALYSES = ("static", "modal", "dynamic", "flight", "design")
+#: The analyses that take &design parameters: those the registry can differentiate (static, modal,
+#: dynamic, flight) and the optimiser built on them (pydriver/analyses/optimiser.py).
+ANALYSES = tuple(a.name for a in REGISTERED.values() if a.sensitivities or a.optimises)
 #: Relative difference step h = STEP * max(|p|, 1 unit): the cube root of the machine epsilon,
 #: where the O(h^2) truncation of a central difference and its O(eps/h) round-off balance
 #: (Nocedal & Wright, Numerical Optimization, 2nd ed., eq. 8.9): both ~1e-11 relative.

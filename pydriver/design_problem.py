@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pydriver.analyses.registry import analysis_of
 from pydriver.deckfile import Deck
 from pydriver.design import Parameter, parameters
 from pydriver.design_measures import OBJECTIVES, Measure
@@ -73,7 +74,7 @@ def problem(deck: Deck) -> Problem | None:
         An optimiser key on another analysis; a missing objective or bound; bounds of the wrong
         count, reversed, outside the key's range or not holding the deck's value.
     """
-    if deck["case.analysis"] != "design":
+    if not analysis_of(deck).optimises:
         for key in OPTIMISER_KEYS:
             if deck.has(f"design.{key}"):
                 _fail(deck, key, "is a setting of the optimiser: only with &case analysis = 'design' "

@@ -28,6 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pydriver.analyses.registry import reported
+
 
 @dataclass
 class Frames:
@@ -122,12 +124,12 @@ def cable_frames(result, max_frames: int, timeseries_path=None) -> Frames | None
         the run kept its time series on disk only (``result.timeseries is None``).
     """
     s = result.summary
-    # A design run on flight evaluations holds the optimum's revolution.
-    analysis = s.get("base_analysis", "") if s["analysis"] == "design" else s["analysis"]
-    if analysis not in ("flight", "dynamic"):
+    # A design run on flight evaluations holds the optimum's revolution (registry.reported).
+    entry = reported(s)
+    if not entry.integrates:
         return None
     n = int(s["n_bodies"])
-    periodic = analysis == "flight"
+    periodic = entry.periodic
     ts = result.timeseries
     rotor = ts is not None and "azimuth_deg" in ts
     if ts is None and timeseries_path is not None and str(timeseries_path).endswith(".csv"):

@@ -39,15 +39,17 @@ from typing import Callable
 
 import numpy as np
 
+from pydriver.analyses.registry import ANALYSES as REGISTERED
 from pydriver.deckfile import Deck, default_value
 from pydriver.schema import GROUPS, lookup
 
-#: Every analysis of ``&case analysis``.
-ANALYSES = ("static", "modal", "dynamic", "flight", "campbell", "design")
-#: The analyses that are one run each (a design run evaluates one of them again and again).
-RUNS = ("static", "modal", "dynamic", "flight", "campbell")
-#: Analyses with a time integration (a static or modal one only when it settles).
-INTEGRATING = ("static", "modal", "dynamic", "flight")
+#: Every analysis of ``&case analysis`` (pydriver.analyses.registry).
+ANALYSES = tuple(REGISTERED)
+#: The analyses that are one run each (an optimiser evaluates one of them again and again).
+RUNS = tuple(a.name for a in REGISTERED.values() if not a.optimises)
+#: Analyses with a time integration (a static or modal one only when it settles; a diagram over
+#: speeds solves each equilibrium by Newton).
+INTEGRATING = tuple(a.name for a in REGISTERED.values() if not a.optimises and not a.sweeps_speed)
 
 
 @dataclass(frozen=True)
@@ -82,7 +84,7 @@ class Scope:
     def reason(self, deck: Deck, analysis: str, base: str) -> str | None:
         """Why the keys do not act in an ``analysis`` run (None: they do); ``base`` is a design
         run's base analysis (else ``analysis`` itself)."""
-        if analysis == "design" and self.design != "base":
+        if REGISTERED[analysis].optimises and self.design != "base":
             acting = self.design == "acts"
         else:
             analysis = base
@@ -104,21 +106,23 @@ def _runs(analyses: tuple) -> str:
 
 def _settles(deck: Deck, analysis: str) -> bool:
     """The equilibrium is found by damped dynamic settling (not the Campbell diagram's Newton)."""
-    return deck["solver.static_method"] == "settle" and _equilibrium(deck, analysis) and analysis != "campbell"
+    return deck["solver.static_method"] == "settle" and _equilibrium(deck, analysis) and \
+        not REGISTERED[analysis].sweeps_speed
 
 
 def _equilibrium(deck: Deck, analysis: str) -> bool:
-    """An equilibrium is solved: every run but a dynamic one from its deck's shape."""
-    return analysis in RUNS and (analysis != "dynamic" or deck["case.start"] == "equilibrium")
+    """An equilibrium is solved: every run but one from t = 0 that starts from its deck's shape."""
+    return analysis in RUNS and (REGISTERED[analysis].time_axis != "t_end" or deck["case.start"] == "equilibrium")
 
 
 def _newton(deck: Deck, analysis: str) -> bool:
     # The Campbell diagram solves every speed's equilibrium by Newton (analyses/campbell.py).
-    return analysis == "campbell" or (_equilibrium(deck, analysis) and deck["solver.static_method"] == "newton")
+    return REGISTERED[analysis].sweeps_speed or (_equilibrium(deck, analysis)
+                                                 and deck["solver.static_method"] == "newton")
 
 
 def _integrates(deck: Deck, analysis: str) -> bool:
-    return analysis in ("dynamic", "flight") or _settles(deck, analysis)
+    return REGISTERED[analysis].integrates or _settles(deck, analysis)
 
 
 def _coordinates(deck: Deck) -> int:
@@ -136,7 +140,7 @@ def _iteration_matrix(deck: Deck, analysis: str) -> bool:
     from pydriver.model import AUTO_SENSITIVITY_CHAIN_MIN_COORDS, resolve_linear_solver
     choice, nq = deck["solver.linear_solver"], _coordinates(deck)
     solvers = {resolve_linear_solver(choice, nq)}
-    if analysis == "flight" and deck["design.parameters"] is not None and choice == "auto":
+    if REGISTERED[analysis].periodic and deck["design.parameters"] is not None and choice == "auto":
         solvers.add("chain" if nq >= AUTO_SENSITIVITY_CHAIN_MIN_COORDS else "block")   # Model.sensitivity_solver_settings
     return bool(solvers & {"block", "dense"})
 
@@ -158,7 +162,7 @@ def _turning(deck: Deck, analysis: str) -> bool:
 def _stream_or_turning(deck: Deck, analysis: str) -> bool:
     """Drag does work on a cable at rest only in a stream or when the rotor carries it round
     (the drag is quadratic in the relative velocity: without either, it and its tangent vanish)."""
-    if analysis in ("dynamic", "flight", "campbell"):
+    if REGISTERED[analysis].integrates or REGISTERED[analysis].sweeps_speed:
         return True
     stream = np.any(np.asarray(deck["drag.stream_velocity"], float) != 0.0) or deck["drag.forward_speed"] != 0.0
     return bool(stream) or _turning(deck, analysis)
@@ -178,7 +182,7 @@ def _rotor_rpm(deck: Deck, analysis: str) -> bool:
     if profile == "runup":
         # A static or modal analysis takes the speed at t = 0, rpm_start (flight and Campbell runs
         # refuse a run-up: deck_rules).
-        return analysis == "dynamic"
+        return REGISTERED[analysis].time_axis == "t_end"
     return profile == "constant"
 
 
@@ -193,7 +197,7 @@ def _extra_lag(deck: Deck, analysis: str) -> bool:
     if deck["blade.motion"] != "fourier":
         return False
     moving = np.sin(np.radians(deck["blade.lag_extra_phase_deg"])) != 0.0 or deck["blade.lag_extra_hz"] != 0.0
-    return analysis == "dynamic" or bool(moving)
+    return REGISTERED[analysis].time_axis == "t_end" or bool(moving)
 
 
 def _extra_lag_amplitude(deck: Deck, analysis: str) -> bool:
@@ -203,7 +207,7 @@ def _extra_lag_amplitude(deck: Deck, analysis: str) -> bool:
 def _blade_azimuth(deck: Deck, analysis: str) -> bool:
     # The Fourier series are in the blade azimuth; a table motion is in time, where the azimuth
     # only labels the time series.
-    return _rotor(deck) is not None and (deck["blade.motion"] == "fourier" or analysis in ("dynamic", "flight"))
+    return _rotor(deck) is not None and (deck["blade.motion"] == "fourier" or REGISTERED[analysis].integrates)
 
 
 #: Where the keys act that do not act everywhere.  A new key acts everywhere unless it gets a
@@ -289,7 +293,7 @@ SCOPES: tuple[Scope, ...] = (
           condition="with &refinement levels > 1"),
     Scope(("output.table_language",), ("static", "modal")),
     # &solver: what each analysis solves
-    Scope(("solver.t_end",), INTEGRATING, lambda deck, a: a == "dynamic" or _settles(deck, a),
+    Scope(("solver.t_end",), INTEGRATING, lambda deck, a: REGISTERED[a].time_axis == "t_end" or _settles(deck, a),
           "as the end of a dynamic run, or the settling time with &solver static_method = 'settle'"),
     Scope(("solver.dt_out", "solver.checkpoint_interval", "solver.output_format"), ("dynamic",)),
     Scope(("solver.error_estimate",), ("dynamic", "flight")),
@@ -348,7 +352,7 @@ def describe(group: str, key: str) -> str:
 def base_analysis(deck: Deck) -> str:
     """The analysis whose keys act: the deck's, or a design run's base analysis (its evaluations)."""
     analysis = deck["case.analysis"]
-    if analysis != "design":
+    if not REGISTERED[analysis].optimises:
         return analysis
     from pydriver.design_problem import problem
     return problem(deck).base_analysis
@@ -358,7 +362,7 @@ def reason(deck: Deck, group: str, key: str | None, analysis: str | None = None)
     """Why ``&group key`` does not act in the deck's run (None: it acts).  ``key`` None asks
     about the group itself (opened without keys)."""
     analysis = analysis or deck["case.analysis"]
-    base = base_analysis(deck) if analysis == "design" else analysis
+    base = base_analysis(deck) if REGISTERED[analysis].optimises else analysis
     for scope in SCOPES:
         if scope.names(group, key):
             why = scope.reason(deck, analysis, base)

@@ -51,6 +51,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+from pydriver.analyses.registry import sections_of
 from pydriver.frames import Frames, cable_frames
 
 #: At most this many frames (files) of a dynamic run.
@@ -155,10 +156,10 @@ def _write_modes(result, run_dir, model) -> list[str]:
     """mode<k>.pvd of a modal run (its undamped shapes) or a Campbell run (its tracked shapes at
     one speed)."""
     s = result.summary
-    if s["analysis"] == "modal" and "mode_shapes_q" in result.extra:
+    if "modes" in sections_of(s) and "mode_shapes_q" in result.extra:
         q, shapes = result.extra["q"], result.extra["mode_shapes_q"][:, :MAX_MODES]
         freqs, where = s["frequencies_hz"], "undamped, about the equilibrium"
-    elif s["analysis"] == "campbell" and "mode_shapes" in result.extra:
+    elif "campbell" in sections_of(s) and "mode_shapes" in result.extra:
         m = result.extra["mode_shapes"]
         q, shapes, freqs = m["q"], m["shapes"], m["f_hz"]
         where = f"damped, tracked, about the equilibrium at {m['rpm']:g} rpm (of the diagram's grid)"

@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from pydriver.analyses.registry import sections_of
+
 
 def _plt():
     import matplotlib
@@ -477,10 +479,11 @@ def _plots(result, out: Path):
     if "fatigue.csv" in result.extra.get("tables", {}):
         yield from plot_envelopes(result, out)
     yield from plot_flagged_modes(result, out)
-    if s["analysis"] == "flight":
+    sections = sections_of(s)
+    if "revolution" in sections:
         yield from plot_flight(result, out)
         return
-    if s["analysis"] == "campbell":
+    if "campbell" in sections:
         yield from plot_campbell(result, out)
         return
     if result.timeseries is not None:
@@ -541,7 +544,7 @@ def plot_flagged_modes(result, out: Path, most: int = 3):
     extent (a mode shape has no amplitude of its own)."""
     block = result.summary.get("resonance") or {}
     flagged = sorted({r["mode"] for r in block.get("flagged", [])})[:most]
-    if result.summary["analysis"] == "flight":
+    if "revolution" in sections_of(result.summary):        # a flight's modes are its hover state's
         table, modes = result.extra.get("hover_table"), result.extra.get("hover_modes")
     else:
         table, modes = result.table, result.extra.get("modes")
@@ -596,7 +599,7 @@ def caption(name: str, summary: dict) -> str:
         return (f"Mode {mode.group(1)}, within the resonance margin: the equilibrium through the centres of mass "
                 "and the mode's displacement (scaled to a tenth of the cable's extent; a mode has no amplitude "
                 "of its own), in a 3-D view to scale and the y-z and x-y side views [m].")
-    where = {"dynamic": "at the end of the run"}.get(s.get("analysis"), "at the static equilibrium")
+    where = "at the end of the run" if "time series" in sections_of(s) else "at the static equilibrium"
     decay = s.get("decay", {})
     captions = {
         "shape.png": f"The cable {where} through its bodies' end points: a 3-D view to scale and the y-z and x-y "

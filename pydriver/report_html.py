@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pydriver.analyses.registry import sections_of
 from pydriver.report_text import _num, text_summary
 from pydriver.richardson import TWO_GRID_SAFETY
 from pydriver.schema import lookup
@@ -133,11 +134,11 @@ def html_report(result, model=None, timeseries_path=None) -> str:
                      + _table(cols, [[t[c][i] for c in cols] for i in range(len(t["body"]))]))
     if "design" in s:
         parts.append(_design_section(s["design"]))
-    if s["analysis"] == "modal":
+    if "modes" in sections_of(s):
         rows = [[i + 1, fu, fd, z] for i, (fu, fd, z) in enumerate(zip(s["frequencies_hz"], s["damped_frequencies_hz"],
                                                                         s["damping_ratios"]))][:12]
         parts.append("<h2>Natural frequencies</h2>" + _table(["mode", "undamped [Hz]", "damped [Hz]", "zeta"], rows))
-    if s["analysis"] == "campbell":
+    if "campbell" in sections_of(s):
         refined = any("rpm_extrapolated" in c for c in s["crossings"])
         rows = [[c["mode"], f"{c['harmonic']}/rev", c["rpm"], c["frequency_hz"]]
                 + ([c.get("rpm_extrapolated"), c.get("rpm_error"), c.get("rpm_order")] if refined else [])

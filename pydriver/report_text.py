@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import math
 
+from pydriver.analyses.registry import sections_of
+
 
 def _num(x: float, digits: int = 5) -> str:
     """A number with ``digits`` significant digits, without exponent clutter near 1."""
@@ -45,7 +47,7 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
         lines.append(_row("tip [m]", s["tip_m"]))
     if s.get("max_constraint_violation_m"):
         lines.append(f"  clamp closed to {s['max_constraint_violation_m']:.1e} m")
-    if "frequencies_hz" in s and s["analysis"] == "modal":
+    if "frequencies_hz" in s and "modes" in sections_of(s):
         fu = ", ".join(_num(f, 4) for f in s["frequencies_hz"][:6])
         fd = ", ".join(_num(f, 4) for f in s["damped_frequencies_hz"][:6])
         lines.append(f"  natural frequencies [Hz]: {fu}")
@@ -67,7 +69,7 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
         d = s["decay"]
         lines.append(f"  decay test: {_num(d['f_damped_hz'], 5)} Hz damped"
                      + (f", zeta = {_num(d['zeta'], 3)}" if "zeta" in d else ""))
-    if s["analysis"] == "campbell":
+    if "campbell" in sections_of(s):
         lines.append(f"  lowest frequency in the operating range {_num(s['lowest_frequency_hz'], 4)} Hz; "
                      f"1/rev reaches {_num(s['highest_1rev_hz'], 3)} Hz")
         lines.append(f"  crossings with 1/rev ... {s['harmonics']}/rev in the operating range: "

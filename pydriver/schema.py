@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from pydriver.analyses.registry import ANALYSES
 from pydriver.design_measures import OBJECTIVES
 
 INF = math.inf
@@ -99,7 +100,7 @@ def _keys() -> list[Key]:
     add = k.append
     # &case --------------------------------------------------------------------------------
     add(Key("case", "name", "str", default="", doc="case name (summary, tables); default: the deck's file stem"))
-    add(Key("case", "analysis", "str", choices=("static", "dynamic", "modal", "flight", "campbell", "design"),
+    add(Key("case", "analysis", "str", choices=tuple(ANALYSES),
             doc="static equilibrium, dynamic run, modal analysis about the equilibrium, forward flight "
                 "to a periodic steady state, Campbell diagram over rotor speed, or design optimisation "
                 "(&design; docs/model.md, \"Design optimisation\")"))

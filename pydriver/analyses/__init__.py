@@ -1,7 +1,8 @@
 """The analyses a deck can ask for, each on a :class:`~pydriver.model.Model`:
 static equilibrium, dynamic run, modal analysis (and, built on them, forward flight, the
-Campbell diagram and design optimisation).  :func:`run` dispatches on ``&case analysis``; modal, Campbell and
-flight runs end with their resonance margins (:mod:`pydriver.analyses.resonance`)."""
+Campbell diagram and design optimisation), registered in :mod:`pydriver.analyses.registry`.
+:func:`run` looks the deck's ``&case analysis`` up there; runs whose analysis has modes end with
+their resonance margins (:mod:`pydriver.analyses.resonance`)."""
 
 from __future__ import annotations
 
@@ -14,15 +15,18 @@ def run(model, run_dir=None, restart=None):
     (:mod:`pydriver.analyses.sensitivities`); the parameters are checked before the analysis."""
     import time
 
+    from pydriver.analyses.registry import analysis_of
     from pydriver.analyses.sensitivities import attach_sensitivities, plan
-    # A design run differentiates each of its evaluations itself (pydriver/analyses/optimiser.py).
+    entry = analysis_of(model)
+    # An optimiser differentiates each of its evaluations itself (pydriver/analyses/optimiser.py).
     t_plan = time.perf_counter()
-    plans = plan(model) if model.analysis != "design" else []
+    plans = plan(model) if entry.sensitivities else []
     t_plan = time.perf_counter() - t_plan
     if restart is not None:
         if model.deck["refinement.levels"] > 1:
             model.deck.fail("refinement", "levels", "--restart continues one run at one n: set levels = 1")
         from pydriver.analyses import dynamics
+        # pydriver.checkpoint.continuation refused a deck whose analysis is not restartable.
         result = dynamics.dynamic_analysis(model, run_dir, restart=restart)
     elif model.deck["refinement.levels"] > 1:
         from pydriver.analyses.refinement import run_refined
@@ -71,33 +75,6 @@ def _with_sensitivities(model, plans):
 
 
 def run_single(model, run_dir=None):
-    """Run the deck's analysis at the deck's n."""
-    from pydriver.analyses import campbell, dynamics, flight, modal, statics
-    analysis = model.analysis
-    if analysis == "static":
-        return statics.static_analysis(model)
-    if analysis == "modal":
-        return modal.modal_analysis(model)
-    if analysis == "dynamic":
-        from pydriver.analyses.integration_error import dynamic_check
-        result = dynamics.dynamic_analysis(model, run_dir)
-        dynamic_check(model, result)
-        return result
-    if analysis == "flight":
-        from pydriver.analyses.hover_modes import add_hover_modes, hover_modes, require_periodic_reachable
-        from pydriver.analyses.integration_error import flight_check
-        hover = hover_modes(model)
-        require_periodic_reachable(model, hover)
-        result = flight.flight_analysis(model, run_dir)
-        flight_check(model, result)
-        add_hover_modes(model, result, hover)
-        if "monodromy" in result.extra:
-            from pydriver.analyses.floquet import add_floquet
-            add_floquet(model, result, result.extra["monodromy"], result.extra["period_s"])
-        return result
-    if analysis == "campbell":
-        return campbell.campbell_analysis(model)
-    if analysis == "design":
-        from pydriver.analyses.optimiser import design_analysis
-        return design_analysis(model)
-    model.deck.fail("case", "analysis", f"analysis '{analysis}' is not available in this version")
+    """Run the deck's analysis at the deck's n (its registry entry's run function)."""
+    from pydriver.analyses.registry import analysis_of
+    return analysis_of(model).run(model, run_dir)

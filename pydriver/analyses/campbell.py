@@ -265,8 +265,9 @@ def solve_speeds(model, rpm: np.ndarray) -> list[tuple]:
     return solved
 
 
-def campbell_analysis(model) -> Result:
-    """Frequencies of the tracked modes over the speed grid, and the crossings."""
+def campbell_analysis(model, run_dir=None) -> Result:
+    """Frequencies of the tracked modes over the speed grid, and the crossings (``run_dir``:
+    unused, the registry's signature)."""
     t_wall = time.perf_counter()
     notes = unforced_note(model)
     c = model.deck.values["campbell"]

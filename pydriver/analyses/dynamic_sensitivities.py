@@ -58,6 +58,11 @@ def start_sensitivities(model, plans) -> tuple[np.ndarray, np.ndarray, np.ndarra
     return model.q0, model.v0, sq0, sv0
 
 
+def dynamic_result_sensitivities(model, plans, result) -> dict:
+    """The registry's differentiation of a finished dynamic run (pydriver.analyses.registry)."""
+    return dynamic_sensitivities(model, plans, result.timeseries)
+
+
 def dynamic_sensitivities(model, plans, ts: dict) -> dict:
     """d(output)/dp of a dynamic run (module doc) from its time series ``ts`` (in memory)."""
     if ts is None:

@@ -103,6 +103,16 @@ def start_state(model):
     return model.q0, model.v0
 
 
+def dynamic_run(model, run_dir=None) -> Result:
+    """The registry's run of ``analysis = 'dynamic'`` (pydriver.analyses.registry): the
+    integration and its estimate of its own integration error
+    (:mod:`pydriver.analyses.integration_error`)."""
+    from pydriver.analyses.integration_error import dynamic_check
+    result = dynamic_analysis(model, run_dir)
+    dynamic_check(model, result)
+    return result
+
+
 def dynamic_analysis(model, run_dir=None, restart=None) -> Result:
     """Integrate and sample; the time series streams into ``run_dir`` if given.  ``restart``
     (a :class:`pydriver.checkpoint.Checkpoint`) continues the run it was written by."""

@@ -60,6 +60,24 @@ def rotor_period(model) -> float:
     return period
 
 
+def flight_run(model, run_dir=None) -> Result:
+    """The registry's run of ``analysis = 'flight'`` (pydriver.analyses.registry): the hover
+    modes first (a march that cannot reach its periodic state is refused before it runs), the
+    periodic revolution, its integration error estimate, the hover modes in the result and,
+    with ``&solver floquet``, the Floquet stability of the revolution."""
+    from pydriver.analyses.hover_modes import add_hover_modes, hover_modes, require_periodic_reachable
+    from pydriver.analyses.integration_error import flight_check
+    hover = hover_modes(model)
+    require_periodic_reachable(model, hover)
+    result = flight_analysis(model, run_dir)
+    flight_check(model, result)
+    add_hover_modes(model, result, hover)
+    if "monodromy" in result.extra:
+        from pydriver.analyses.floquet import add_floquet
+        add_floquet(model, result, result.extra["monodromy"], result.extra["period_s"])
+    return result
+
+
 def flight_analysis(model, run_dir=None) -> Result:
     """Revolutions to a periodic steady state; the last one in detail."""
     t_wall = time.perf_counter()

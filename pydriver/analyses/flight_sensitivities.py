@@ -483,6 +483,15 @@ def _periodic_start_krylov(model, settings, period, q0, v0, d_x, t_out):
                    "(the monodromy's direct solve)")
 
 
+def flight_result_sensitivities(model, plans, result) -> dict:
+    """The registry's differentiation of a finished flight run (pydriver.analyses.registry): from
+    the start of its periodic orbit, each joint's worst point around the jacket taken from its own
+    fatigue table."""
+    orbit = result.extra["orbit"]
+    return flight_sensitivities(model, plans, orbit["period_s"], orbit, result.timeseries,
+                                worst_points_of(model, result.extra.get("tables", {}).get("fatigue.csv")))
+
+
 def flight_sensitivities(model, plans, period: float, start: dict, ts: dict, worst_points=None) -> dict:
     """d(output)/dp of a flight's periodic revolution (module doc).
 

@@ -37,8 +37,9 @@ def modes_about(model, q, lam) -> dict:
         raise RunError(f"deck '{model.name}': {err}") from err
 
 
-def modal_analysis(model) -> Result:
-    """Frequencies, damping ratios and mode shapes about the equilibrium."""
+def modal_analysis(model, run_dir=None) -> Result:
+    """Frequencies, damping ratios and mode shapes about the equilibrium (``run_dir``: unused,
+    the registry's signature)."""
     t0 = time.perf_counter()
     notes = unforced_note(model)
     with unforced(model):

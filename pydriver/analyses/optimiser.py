@@ -33,6 +33,7 @@ import numpy as np
 from pydriver.analyses.flight import flight_analysis
 from pydriver.analyses.flight_sensitivities import flight_sensitivities, worst_points_of
 from pydriver.analyses.hover_modes import hover_model, hover_modes, require_periodic_reachable
+from pydriver.analyses.registry import ANALYSES
 from pydriver.analyses.resonance import harmonic_margin, operating_speeds
 from pydriver.analyses.sensitivities import modal_sensitivities, plan, static_outputs, static_sensitivities
 from pydriver.analyses.statics import drop_pulse, equilibrium
@@ -107,7 +108,7 @@ class Evaluator:
 
     def _evaluate(self, p) -> Evaluation:
         self.runs += 1
-        if self.prob.base_analysis == "flight":
+        if ANALYSES[self.prob.base_analysis].periodic:
             return self._evaluate_flight(p)
         model = drop_pulse(self.model_at(p))      # this design's own model
         q, lam, _ = equilibrium(model)
@@ -119,7 +120,7 @@ class Evaluator:
             y, outputs, _ = static_outputs(model, q)
             values.update(zip(outputs, (float(v) for v in y)))
             sens.append(static_sensitivities(model, plans, q, lam))
-        if self.prob.base_analysis == "modal":
+        if ANALYSES[self.prob.base_analysis].modes == "summary":
             modal = modal_sensitivities(model, plans, q, lam)
             if "f1_hz" not in modal["values"]:
                 raise RunError(f"deck '{self.deck.name}': the first frequency has no sensitivity at this design "
@@ -159,6 +160,12 @@ class Evaluator:
             row = modal["summary"]["d_output_d_parameter"]["f1_hz"]
             gradients["f1_hz"] = np.array([row[n] for n in names])
         return Evaluation(p, values, gradients)
+
+
+def design_run(model, run_dir=None) -> Result:
+    """The registry's run of ``analysis = 'design'`` (pydriver.analyses.registry): the optimum of
+    :func:`design_analysis` at the deck's n (``run_dir``: unused; its files are the result's)."""
+    return design_analysis(model)
 
 
 def design_analysis(model, frequency_shift_hz: float = 0.0) -> Result:

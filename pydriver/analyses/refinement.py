@@ -23,6 +23,7 @@ import time
 
 import numpy as np
 
+from pydriver.analyses.registry import analysis_of, sections_of
 from pydriver.errors import DeckError, RunError
 from pydriver.progress import stage
 from pydriver.richardson import (TWO_GRID_SAFETY, departing_level, level_text, outside_physical_range,
@@ -74,8 +75,8 @@ def _scalars(summary: dict) -> dict:
     for i, f in enumerate(summary.get("damped_frequencies_hz", [])[:6]):
         if f > 0.0:
             out[f"fd{i + 1} [Hz]"] = f
-    if summary["analysis"] == "static":
-        for support, wrench in summary["reactions"].items():
+    if "equilibrium" in sections_of(summary):        # the reactions of an equilibrium (static, modal)
+        for support, wrench in summary.get("reactions", {}).items():
             for kind, unit in (("F", "N"), ("M", "Nm")):
                 for comp, value in zip("xyz", wrench[kind]):
                     out[f"{kind}_{support} {comp} [{unit}]"] = value
@@ -185,9 +186,10 @@ def run_refined(model, run_dir, analyse):
     # A Campbell diagram is a grid of frequencies and a list of crossings, not a few scalars:
     # its coarse results are kept whole (small); other runs keep only their summaries (a
     # flight's time series need not stay in memory).
-    diagram = model.analysis == "campbell"
+    entry = analysis_of(model)
+    diagram = entry.refinement == "diagram"
     coarse, walls = [], []
-    floquet = model.deck["solver.floquet"] if model.analysis == "flight" else False
+    floquet = model.deck["solver.floquet"] if entry.periodic else False
     floquet_base = None
     for k, m in enumerate(models):
         if floquet and k > 0:

@@ -28,6 +28,8 @@ import math
 
 import numpy as np
 
+from pydriver.analyses.registry import analysis_of
+
 
 def harmonic_margin(f_hz: float, error_hz: float, rpm: float, harmonics: int) -> dict:
     """The nearest harmonic of one frequency and its margins.
@@ -134,7 +136,7 @@ def operating_speeds(model) -> list[float]:
     deck = model.deck
     if deck["resonance.operating_rpm"] is not None:
         return [float(x) for x in deck["resonance.operating_rpm"]]
-    if model.analysis == "campbell":
+    if analysis_of(model).sweeps_speed:
         op = deck["campbell.operating_rpm"]
         return [float(x) for x in op] if op is not None else []
     if "rotor" in deck.groups:
@@ -148,7 +150,7 @@ def operating_speeds(model) -> list[float]:
 
 def _harmonics(model) -> int:
     deck = model.deck
-    if model.analysis == "campbell" and not deck.has("resonance.harmonics"):
+    if analysis_of(model).sweeps_speed and not deck.has("resonance.harmonics"):
         return int(deck["campbell.harmonics"])
     return int(deck["resonance.harmonics"])
 
@@ -200,20 +202,18 @@ def _campbell_rows(result, rpm_values, harmonics, required):
 def attach_margins(model, result) -> None:
     """Add summary['resonance'], its warnings and resonance.csv to a modal, Campbell or flight
     result (after refinement, so that refined frequencies carry their error bars)."""
-    if model.analysis not in ("modal", "campbell", "flight"):
+    entry = analysis_of(model)
+    if entry.modes is None:
         return
     rpm_values = operating_speeds(model)
     harmonics = _harmonics(model)
     required = float(model.deck["resonance.margin_percent"])
-    about = {"modal": "the equilibrium of the deck",
-             "flight": "the hover equilibrium at the flight's rotor speed and n (blade at its mean angles, "
-                       "no stream)",
-             "campbell": "the equilibrium at each speed of the diagram"}[model.analysis]
+    about = entry.modes_about
     if not rpm_values:
         result.summary["resonance"] = {"operating_rpm": [], "note": "no operating speed: the rotor does not "
                                        "turn; set &resonance operating_rpm to check the margins"}
         return
-    if model.analysis == "campbell":
+    if entry.modes == "diagram":
         rows = _campbell_rows(result, rpm_values, harmonics, required)
     else:
         rows = mode_margins(_modal_modes(result.summary), rpm_values, harmonics, required)

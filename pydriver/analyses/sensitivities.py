@@ -35,6 +35,7 @@ import numpy as np
 
 from pydriver.analyses.common import REACTION_NAMES
 from pydriver.analyses.linear_modes import symmetric_modes
+from pydriver.analyses.registry import analysis_of
 from pydriver.analyses.statics import drop_pulse, unforced
 from pydriver.design import Parameter, parameters, ratio_unit, step
 from pydriver.errors import DeckError, RunError
@@ -137,9 +138,9 @@ def plan(model) -> list[Plan]:
             if s == 0.0:
                 return None
             varied = model.with_changes(p.changes(model.deck, p.value + s * h))   # its own model
-            # A dynamic run's partials F_p are of the loads as integrated, pulse included (its
-            # start equilibrium switches the pulse off in scope, dynamic_sensitivities).
-            return varied if model.analysis == "dynamic" else drop_pulse(varied)
+            # A run from t = 0 differentiates the loads as integrated, pulse included (its start
+            # equilibrium switches the pulse off in scope, dynamic_sensitivities).
+            return varied if analysis_of(model).time_axis == "t_end" else drop_pulse(varied)
 
         models, errors = {}, {}
         for s in (1.0, -1.0):
@@ -322,23 +323,23 @@ def _pack(plans, names, units, values, warnings) -> dict:
     return {"summary": summary, "rows": rows, "warnings": warnings}
 
 
+def static_result_sensitivities(model, plans: list[Plan], result) -> dict:
+    """The registry's differentiation of a finished static run (pydriver.analyses.registry)."""
+    return static_sensitivities(model, plans, result.extra["q"], result.extra["lambda"])
+
+
+def modal_result_sensitivities(model, plans: list[Plan], result) -> dict:
+    """The registry's differentiation of a finished modal run."""
+    return modal_sensitivities(model, plans, result.extra["q"], result.extra["lambda"])
+
+
 def attach_sensitivities(model, result, plans: list[Plan]) -> None:
-    """Add the sensitivities of a finished static, modal, dynamic or flight run to its result (summary and
-    ``sensitivities.csv``)."""
+    """Add the sensitivities of a finished run to its result (summary and ``sensitivities.csv``),
+    as its analysis differentiates it (the registry's ``sensitivities``)."""
     if not plans:
         return
-    if model.analysis == "flight":
-        from pydriver.analyses.flight_sensitivities import flight_sensitivities, worst_points_of
-        orbit = result.extra["orbit"]
-        sens = flight_sensitivities(model, plans, orbit["period_s"], orbit, result.timeseries,
-                                    worst_points_of(model, result.extra.get("tables", {}).get("fatigue.csv")))
-    elif model.analysis == "dynamic":
-        from pydriver.analyses.dynamic_sensitivities import dynamic_sensitivities
-        sens = dynamic_sensitivities(model, plans, result.timeseries)
-    elif model.analysis == "static":
-        sens = static_sensitivities(model, plans, result.extra["q"], result.extra["lambda"])
-    else:
-        sens = modal_sensitivities(model, plans, result.extra["q"], result.extra["lambda"])
+    from pydriver.analyses.registry import analysis_of
+    sens = analysis_of(model).differentiate(model, plans, result)
     result.summary["sensitivities"] = sens["summary"]
     if sens["warnings"]:
         result.summary.setdefault("warnings", []).extend(sens["warnings"])

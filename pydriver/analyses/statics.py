@@ -101,8 +101,9 @@ def _solve(model, t: float):
     return q[:, 0], sample["lambda"][0], stats
 
 
-def static_analysis(model) -> Result:
-    """The equilibrium, its reactions, shape table and joint loads."""
+def static_analysis(model, run_dir=None) -> Result:
+    """The equilibrium, its reactions, shape table and joint loads (``run_dir``: unused, the
+    registry's signature; pydriver.analyses.registry)."""
     t0 = time.perf_counter()
     notes = unforced_note(model)
     with unforced(model):
