@@ -125,7 +125,7 @@ def continuation(model, directory) -> Checkpoint:
         This deck cannot continue that run (another model, an earlier ``t_end``, another
         analysis): naming this deck's group and key.
     """
-    from pydriver.analyses.dynamics import column_names
+    from pydriver.analyses.record_columns import column_names
     from pydriver.analyses.output_grid import output_grid
 
     if not analysis_of(model).restartable:           # before the files: their sizes are a dynamic run's
@@ -325,7 +325,7 @@ def check_state(model, ck: Checkpoint) -> None:
     than the integration allows: positions by their residual (:func:`constraint_bound`), rates
     by how far the consistent start moves them."""
     from pydriver.analyses.common import RAD2DEG
-    from pydriver.analyses.dynamics import coordinate_columns
+    from pydriver.analyses.record_columns import coordinate_columns
 
     last = {c: float(ck.record[c][-1]) for c in ck.record}
     worst = None

@@ -34,7 +34,7 @@ import pytest
 import pydriver
 from conftest import INPUTS
 from pydriver.analyses.common import RAD2DEG
-from pydriver.analyses.dynamics import coordinate_columns
+from pydriver.analyses.record_columns import coordinate_columns
 from pydriver.model import Model
 from pydriver.output import TimeseriesWriter, read_timeseries
 from pydriver.study import override_deck

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from pydriver.assembly import bodies, represented_lengths
+from pydriver.errors import DeckError
 
 RAD2DEG = 180.0 / np.pi
 REACTION_NAMES = ["FA_x", "FA_y", "FA_z", "MA_x", "MA_y", "MA_z", "FB_x", "FB_y", "FB_z", "MB_x", "MB_y", "MB_z"]
@@ -115,3 +116,19 @@ def straight_zy_warnings(model, beta_deg) -> list:
     return [f"joints {straight} of the thesis's zy parametrisation are straight (beta = 0), where "
             "gamma is a twist and the joint cannot bend sideways: loads across those joints are "
             "carried as if the cable were rigid there; use &chain joint = 'xy' (Cardan bending)"]
+
+
+def rotor_period(model) -> float:
+    """The revolution period 2 pi / Omega [s] of the deck's constant rotor speed.
+
+    The schema refuses speeds that are not 0 or at least 1e-3 rpm, but a speed that reaches
+    here as 0 (a denormal rpm times pi/30 underflows) must not divide by zero: a DeckError
+    naming the speed key instead.
+    """
+    omega = float(model.description["rotor"]["speed"]["omega"])
+    period = 2.0 * np.pi / omega if omega > 0.0 else np.inf
+    if not np.isfinite(period):
+        group, key = ("rotor", "rpm") if "rotor" in model.deck.groups else ("loads", "rotor_rpm")
+        raise DeckError(model.name, group, key, f"a flight run needs a rotor speed with a finite revolution period, "
+                                                f"got Omega = {omega:g} rad/s")
+    return period

@@ -8,9 +8,9 @@ import time
 import numpy as np
 
 from pydriver.analyses.clamp_reach import reach_error
-from pydriver.analyses.common import RAD2DEG, REACTION_NAMES, base_summary, joint_columns, reactions, \
-    straight_zy_warnings
+from pydriver.analyses.common import REACTION_NAMES, base_summary, reactions, straight_zy_warnings
 from pydriver.analyses.output_grid import is_segment_start, output_grid
+from pydriver.analyses.record_columns import chunk_columns, column_names, coordinate_columns
 from pydriver.analyses.singularity import ClosestApproach
 from pydriver.analyses.statics import equilibrium, has_pulse
 from pydriver.errors import DeckError, RunError
@@ -23,76 +23,6 @@ CHUNK = 2000
 #: Largest time series kept in memory as well as on disk [bytes]; a run without an output
 #: directory that would need more is refused before it starts.
 MEMORY_LIMIT = 1.0e9
-
-
-#: Names of a joint's coordinates, in their order in q (docs/model.md: thesis gamma/beta, or
-#: the Cardan bending angles about the joint's x and y axes, and the twist).
-COORDINATE_NAMES = {"zy": ("gamma", "beta"), "xy": ("cardan_x", "cardan_y"),
-                    "xyz": ("cardan_x", "cardan_y", "twist")}
-
-
-def coordinate_columns(model) -> list[tuple[str, str, int]]:
-    """(coordinate column, rate column, 0-based index in q) of every joint coordinate: the
-    coordinates the springs act on, unwrapped (gamma{j}_deg wraps to +-180), and their rates."""
-    names = COORDINATE_NAMES[model.deck["chain.joint"]]
-    out = []
-    for j, first in enumerate(model.description["first_coord"]):
-        if first == 0:                      # a locked joint (a clamped first body) has none
-            continue
-        for k, name in enumerate(names):
-            out.append((f"{name}{j + 1}_coord_deg", f"{name}{j + 1}_rate_degps", int(first) - 1 + k))
-    return out
-
-
-def column_names(model) -> list[str]:
-    """The time-series columns of a dynamic run of this model."""
-    nb = model.n_bodies
-    names = ["t"]
-    if model.description["rotor"] is not None:
-        names += ["psi_deg", "azimuth_deg"]
-    names += [f"{c}{j + 1}" for j in range(nb) for c in "xyz"]
-    names += [f"{a}{j + 1}_deg" for j in range(nb) for a in ("gamma", "beta")]
-    names += REACTION_NAMES if model.nc > 0 else REACTION_NAMES[:6]
-    names += ["tip_x", "tip_y", "tip_z", "E_kin_J", "E_pot_J", "g_max_m"]
-    names += [f"{q}{j + 1}_{u}" for j in range(nb) for q, u in
-              (("axial", "N"), ("shear", "N"), ("bending", "Nm"), ("torsion", "Nm"), ("curvature", "1pm"))]
-    names += [f"strain{j + 1}" for j in range(nb)]
-    names += [f"{q}{j + 1}_{u}" for j in range(nb) for q, u in
-              (("moment_x", "Nm"), ("moment_y", "Nm"), ("kappa_x", "1pm"), ("kappa_y", "1pm"))]
-    coords = coordinate_columns(model)
-    names += [c for c, _, _ in coords] + [r for _, r, _ in coords]
-    return names
-
-
-def chunk_columns(model, t, sample, q, v) -> dict:
-    """One chunk's time-series columns from the core's samples and the coordinates q, v
-    (nq, len(t)) they were taken at."""
-    nb = model.n_bodies
-    cols = {"t": np.asarray(t, float)}
-    rot = model.description["rotor"]
-    if rot is not None:
-        cols["psi_deg"] = np.mod(sample["psi"] * RAD2DEG, 360.0)
-        cols["azimuth_deg"] = np.mod((sample["psi"] + rot["azimuth0"]) * RAD2DEG, 360.0)
-    for j in range(nb):
-        for c, name in enumerate("xyz"):
-            cols[f"{name}{j + 1}"] = sample["cm"][c, j]
-    for j in range(nb):
-        cols[f"gamma{j + 1}_deg"] = sample["angles"][0, j] * RAD2DEG
-        cols[f"beta{j + 1}_deg"] = sample["angles"][1, j] * RAD2DEG
-    for i, name in enumerate(REACTION_NAMES[:12 if model.nc > 0 else 6]):
-        cols[name] = sample["wrenches"][:, i]
-    for c, name in enumerate(("tip_x", "tip_y", "tip_z")):
-        cols[name] = sample["joints"][c, -1]
-    cols["E_kin_J"] = sample["kinetic"]
-    cols["E_pot_J"] = sample["potential"]
-    cols["g_max_m"] = sample["g_max"]
-    cols.update(joint_columns(model, sample))
-    coords = coordinate_columns(model)
-    for name, _, i in coords:
-        cols[name] = np.asarray(q, float)[i] * RAD2DEG
-    for _, name, i in coords:
-        cols[name] = np.asarray(v, float)[i] * RAD2DEG
-    return cols
 
 
 def start_state(model):
@@ -109,7 +39,7 @@ def dynamic_run(model, run_dir=None) -> Result:
     (:mod:`pydriver.analyses.integration_error`)."""
     from pydriver.analyses.integration_error import dynamic_check
     result = dynamic_analysis(model, run_dir)
-    dynamic_check(model, result)
+    dynamic_check(model, result, dynamic_analysis)
     return result
 
 

@@ -16,13 +16,13 @@ import time
 import numpy as np
 
 from pydriver.analyses.clamp_reach import reach_error
-from pydriver.analyses.common import REACTION_NAMES, base_summary, reactions
-from pydriver.analyses.dynamics import chunk_columns
+from pydriver.analyses.common import REACTION_NAMES, base_summary, reactions, rotor_period
+from pydriver.analyses.record_columns import chunk_columns
 from pydriver.analyses.fatigue_loads import fatigue_of_run
 from pydriver.analyses.shooting import periodic_start
 from pydriver.analyses.singularity import ClosestApproach
 from pydriver.analyses.statics import equilibrium
-from pydriver.errors import DeckError, RunError
+from pydriver.errors import RunError
 from pydriver.output import TimeseriesWriter
 from pydriver.progress import report
 from pydriver.run_result import Result
@@ -42,22 +42,6 @@ def _peaks(model, ts: dict) -> dict:
     for name in REACTION_NAMES[:12 if model.nc else 6]:
         out[name] = {"min": float(np.min(ts[name])), "max": float(np.max(ts[name]))}
     return out
-
-
-def rotor_period(model) -> float:
-    """The revolution period 2 pi / Omega [s] of the deck's constant rotor speed.
-
-    The schema refuses speeds that are not 0 or at least 1e-3 rpm, but a speed that reaches
-    here as 0 (a denormal rpm times pi/30 underflows) must not divide by zero: a DeckError
-    naming the speed key instead.
-    """
-    omega = float(model.description["rotor"]["speed"]["omega"])
-    period = 2.0 * np.pi / omega if omega > 0.0 else np.inf
-    if not np.isfinite(period):
-        group, key = ("rotor", "rpm") if "rotor" in model.deck.groups else ("loads", "rotor_rpm")
-        raise DeckError(model.name, group, key, f"a flight run needs a rotor speed with a finite revolution period, "
-                                                f"got Omega = {omega:g} rad/s")
-    return period
 
 
 def flight_run(model, run_dir=None) -> Result:

@@ -59,7 +59,7 @@ import numpy as np
 
 from pydriver import fatigue
 from pydriver.analyses.common import REACTION_NAMES, joint_geometry
-from pydriver.analyses.dynamics import chunk_columns
+from pydriver.analyses.record_columns import chunk_columns
 from pydriver.analyses.fatigue_loads import _components, _record, sn_curve
 from pydriver.analyses.sensitivities import _pack
 from pydriver.errors import RunError

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from pydriver.analyses.common import rotor_period
+
 #: The transient a march starts with, as a share of the cable's length: the distance from the hover
 #: start to the periodic motion (the shipped flight decks: 2 to 11 % of L between their first two
 #: revolutions).  Used only to estimate how many revolutions the march needs.
@@ -47,7 +49,6 @@ def revolutions_needed(model, hover) -> tuple[float, int | None]:
     the two revolutions compared.  Returns (revolutions, the deciding mode's number); infinite for
     an undamped oscillating mode (no periodic state is reached by marching: issue 35, an undamped
     refined flight had run for minutes before failing at its step budget)."""
-    from pydriver.analyses.flight import rotor_period
     s = model.deck.values["solver"]
     period = rotor_period(model)
     f = np.asarray(hover.summary["damped_frequencies_hz"], float)

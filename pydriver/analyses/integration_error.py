@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pydriver.analyses.record_columns import chunk_columns
 from pydriver.errors import DeckError, RunError
 
 #: The check's tolerances are the run's divided by this.
@@ -110,7 +111,6 @@ def _skip(result, why: str) -> None:
 
 def flight_check(model, result) -> None:
     """Repeat the flight's last revolution at the check's tolerances and attach the estimate."""
-    from pydriver.analyses.dynamics import chunk_columns
     from pydriver.analyses.fatigue_loads import fatigue_of_run
     if not model.deck["solver.error_estimate"]:
         return _skip(result, "&solver error_estimate = .false.")
@@ -135,9 +135,9 @@ def flight_check(model, result) -> None:
                                   _family_changes(ts, check, slice(None)), life, life_check))
 
 
-def dynamic_check(model, result) -> None:
-    """Repeat the dynamic run at the check's tolerances (in memory) and attach the estimate."""
-    from pydriver.analyses.dynamics import dynamic_analysis
+def dynamic_check(model, result, dynamic_analysis) -> None:
+    """Repeat the dynamic run at the check's tolerances (in memory, by ``dynamic_analysis(model)``,
+    the run's own function) and attach the estimate."""
     if not model.deck["solver.error_estimate"]:
         return _skip(result, "&solver error_estimate = .false.")
     settings = check_settings(model)
