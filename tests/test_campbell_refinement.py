@@ -177,3 +177,21 @@ def test_the_forward_flight_cable_as_a_refined_campbell_diagram_writes_no_unphys
     # physical range; the rule that drops one that would is checked in test_richardson.py.
     said = [w for w in res.summary.get("warnings", []) if "physical range" in w]
     assert not said, said
+
+
+def test_a_flight_decks_diagram_is_of_its_hover_state():
+    """A Campbell run of a flight deck is of the state its resonance margins are judged about
+    (issue 36): the blade at its mean angles, the same drag in still air.  Its frequencies at the
+    operating speed are then the flight's own hover modes (modal_analysis of hover_model): the
+    same linearisation solved twice, so to the eigen-solver's round-off (1e-9 relative leaves
+    four decades)."""
+    from pydriver.analyses import run
+    from pydriver.analyses.hover_modes import hover_modes
+    from conftest import INPUTS
+    flight = pydriver.Model.from_deck(INPUTS / "uh60_part2_forward_flight_cable.nml").with_changes(
+        {"refinement.levels": 1, "solver.floquet": False})
+    hover = np.asarray(hover_modes(flight).summary["damped_frequencies_hz"][:3])
+    diagram = run(flight.with_changes({"case.analysis": "campbell", "campbell.rpm_max": 260.0,
+                                       "campbell.n_speeds": 2, "campbell.operating_rpm": [250.0, 260.0]}))
+    assert np.asarray(diagram.extra["campbell"]["f"])[-1][:3] == pytest.approx(hover, rel=1e-9)
+    assert any("hover state" in w for w in diagram.summary["warnings"])

@@ -21,6 +21,7 @@ import time
 import numpy as np
 
 from pydriver.analyses.common import base_summary
+from pydriver.analyses.hover_modes import hover_changes
 from pydriver.analyses.linear_modes import complex_modes, mac
 from pydriver.analyses.statics import unforced, unforced_note
 from pydriver.errors import RunError
@@ -270,6 +271,15 @@ def campbell_analysis(model, run_dir=None) -> Result:
     unused, the registry's signature)."""
     t_wall = time.perf_counter()
     notes = unforced_note(model)
+    # A flight scene's diagram is of its hover state, the state its resonance margins are judged
+    # about (issue 36: the forward-flight cable's diagram had been of the blade in its installed
+    # pose without drag, 267.4 rpm at 4/rev where its hover state meets 4/rev at 243 rpm).
+    changes = hover_changes(model.deck)
+    if changes:
+        model = model.with_changes(changes)
+        notes.append("the diagram is of the deck's hover state (" + ", ".join(
+            f"&{k.split('.')[0]} {k.split('.')[1]} = {v}" for k, v in changes.items()) + "): the blade at its mean "
+            "angles in still air, the state a flight's resonance margins are judged about")
     c = model.deck.values["campbell"]
     n_modes = int(c["n_modes"])
     check_mode_count(model, n_modes)

@@ -21,19 +21,31 @@ from pydriver.analyses.common import rotor_period
 START_TRANSIENT_SHARE = 0.1
 
 
-def hover_model(model):
-    """The flight deck's hover state as a modal deck (same n, same rotor speed)."""
-    deck = model.deck
-    changes = {"case.analysis": "modal", "refinement.levels": 1}
-    if "blade" in deck.groups:
+def hover_changes(deck) -> dict:
+    """The deck changes that make a flight scene its hover state: the blade held at its mean angles
+    (the constant terms a0 of the flap, lag and pitch series; no extra lead-lag oscillation) and no
+    air stream (the same drag, in the still air the rotor turns in).  Empty for a deck that has
+    neither a blade motion nor a stream (its own state is its hover state)."""
+    changes = {}
+    if "blade" in deck.groups and deck["blade.motion"] == "fourier":
         for key in ("flap_deg", "lag_deg", "pitch_deg"):
             series = deck[f"blade.{key}"]
-            changes[f"blade.{key}"] = [float(series[0])] if series is not None and len(series) else [0.0]
-        changes["blade.lag_extra_deg"] = 0.0
+            mean = [float(series[0])] if series is not None and len(series) else [0.0]
+            if series is None or list(np.atleast_1d(series)) != mean:
+                changes[f"blade.{key}"] = mean
+        if deck["blade.lag_extra_deg"] != 0.0:
+            changes["blade.lag_extra_deg"] = 0.0
     if "drag" in deck.groups:
-        changes["drag.forward_speed"] = 0.0
-        changes["drag.stream_velocity"] = [0.0, 0.0, 0.0]
-    return model.with_changes(changes)
+        if deck["drag.forward_speed"] != 0.0:
+            changes["drag.forward_speed"] = 0.0
+        if np.any(np.asarray(deck["drag.stream_velocity"], float) != 0.0):
+            changes["drag.stream_velocity"] = [0.0, 0.0, 0.0]
+    return changes
+
+
+def hover_model(model):
+    """The flight deck's hover state as a modal deck (same n, same rotor speed)."""
+    return model.with_changes({"case.analysis": "modal", "refinement.levels": 1, **hover_changes(model.deck)})
 
 
 def hover_modes(model):
