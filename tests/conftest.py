@@ -10,6 +10,7 @@ import os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
+import contextlib
 import json
 import re
 from pathlib import Path
@@ -58,3 +59,20 @@ def pytest_report_header(config):
     .ci/setup builds with it, the product wheel without)."""
     from pydriver.core import HAS_PROBES
     return f"rotorcable probes: {'built' if HAS_PROBES else 'NOT built (bash .ci/setup builds them)'}"
+
+
+@pytest.fixture(scope="session")
+def slurm():
+    """A private single-node Slurm (``tests/slurm_cluster.py``), started for the first test
+    that asks for it and stopped at the end of the session.
+
+    Not skipped when Slurm is missing: the tests that need it fail, saying that
+    ``bash .ci/setup`` installs it (CI must run them).
+    """
+    from slurm_cluster import SlurmUnavailable, local_slurm
+    with contextlib.ExitStack() as stack:
+        try:
+            cluster = stack.enter_context(local_slurm())
+        except SlurmUnavailable as exc:
+            pytest.fail(f"cannot start the tests' Slurm: {exc}", pytrace=False)
+        yield cluster
