@@ -129,8 +129,12 @@ def build(deck: Deck) -> tuple[CoreModel, dict]:
         (support A carried by the rotor or the blade), ``loads`` (``{kind: {name: value}}``,
         every load added, by its registry declaration), ``support`` (the kind of support B or
         None) and ``support_parameters`` (its block by name, motion included), ``clamp``
-        (position, rotation of a support that holds both, or None), ``rotor`` (or None), and the
-        deck's start state ``q0``, ``v0`` [rad, rad/s].
+        (position, rotation of a support that holds both, or None), ``rotor`` (or None), the
+        deck's start state ``q0``, ``v0`` [rad, rad/s], ``joint_lengths`` (the cable length each
+        joint stands for, :func:`represented_lengths`) and ``cable`` (the physical cable
+        parameters ``ei``, ``gj``, ``mass_per_length``, ``damping_time`` given, or None for the
+        thesis's per-joint constants).  Analyses read the model's geometry from here, never from
+        the deck again (issue 36).
     """
     b = bodies(deck)
     gamma = np.asarray(deck["shape.gamma_deg"], float) * DEG
@@ -168,7 +172,16 @@ def build(deck: Deck) -> tuple[CoreModel, dict]:
     return core, {"bodies": b, "first_coord": first_coord, "stiffness": c, "damping": d, "rest": rest,
                   "base_rotation": base_rotation, "base_moves": bool(motion_a["motion.hinges"]), "loads": loads,
                   "support": support.kind if support is not None else None, "support_parameters": params,
-                  "clamp": clamp, "rotor": rot, "q0": q0, "v0": v0}
+                  "clamp": clamp, "rotor": rot, "q0": q0, "v0": v0,
+                  "joint_lengths": represented_lengths(deck, b), "cable": _cable(deck)}
+
+
+def _cable(deck: Deck) -> dict | None:
+    """The physical cable parameters the deck gives (&cable), or None."""
+    if not deck.has("cable.ei"):
+        return None
+    return {k: float(deck[f"cable.{k}"]) for k in ("ei", "gj", "mass_per_length", "damping_time")
+            if deck[f"cable.{k}"] is not None}
 
 
 def _first_coords(locked: np.ndarray, per_joint: int) -> np.ndarray:

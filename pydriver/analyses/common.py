@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from pydriver.assembly import bodies, represented_lengths
 from pydriver.errors import DeckError
 
 RAD2DEG = 180.0 / np.pi
@@ -23,8 +22,8 @@ def reactions(w, has_b: bool) -> dict:
 def joint_geometry(model) -> dict:
     """Per joint: the cable length it stands for and the diameter there (for curvature and
     jacket strain: kappa = bend angle / length, eps = kappa d / 2)."""
-    b = bodies(model.deck)
-    ell = represented_lengths(model.deck, b)
+    b = model.description["bodies"]
+    ell = model.description["joint_lengths"]
     d = 2.0 * b.radii
     d_joint = d.copy()
     d_joint[1:] = 0.5 * (d[:-1] + d[1:])
@@ -77,11 +76,11 @@ def base_summary(model, analysis: str, wall: float) -> dict:
     springs = d.values["springs"]["c_beta"]
     free = [j for j in range(model.n_bodies) if not (j == 0 and d["chain.first_body"] == "clamped")]
     c_beta = float(np.median(springs[free])) if free else 0.0
-    if d.has("cable.ei"):
+    cable = model.description["cable"]
+    if cable is not None:
         # Physical cable: the bending spring of an interior joint, EI / l (docs/model.md);
         # &springs c_beta is unused (it had been reported as 0).
-        lengths = model.description["bodies"].lengths
-        c_beta = float(d["cable.ei"]) / float(np.median(lengths))
+        c_beta = cable["ei"] / float(np.median(model.description["bodies"].lengths))
     out = {"case": model.case, "deck": model.name, "analysis": analysis, "wall_time_s": wall,
            **({"description": d["case.description"]} if d["case.description"] else {}),
            "n_bodies": model.n_bodies, "n_coords": model.nq, "n_constraints": model.nc,
@@ -92,9 +91,8 @@ def base_summary(model, analysis: str, wall: float) -> dict:
         out["rotor"] = {"profile": rot["profile"], "rpm_max": rot["omega_max"] * 30.0 / np.pi,
                         "centre_m": [float(x) for x in rot["centre"]],
                         "blade_azimuth0_deg": float(np.degrees(rot["azimuth0"]))}
-    if d.has("cable.ei"):
-        out["cable"] = {k: float(d[f"cable.{k}"]) for k in ("ei", "gj", "mass_per_length", "damping_time")
-                        if d[f"cable.{k}"] is not None}
+    if cable is not None:
+        out["cable"] = dict(cable)
     return out
 
 
@@ -125,7 +123,8 @@ def rotor_period(model) -> float:
     here as 0 (a denormal rpm times pi/30 underflows) must not divide by zero: a DeckError
     naming the speed key instead.
     """
-    omega = float(model.description["rotor"]["speed"]["omega"])
+    # The built model's speed (CoreModel.update may have changed it since the description was made).
+    omega = float(model.core.parameter("rotor.omega")[0])
     period = 2.0 * np.pi / omega if omega > 0.0 else np.inf
     if not np.isfinite(period):
         group, key = ("rotor", "rpm") if "rotor" in model.deck.groups else ("loads", "rotor_rpm")

@@ -27,7 +27,6 @@ import numpy as np
 
 from pydriver import fatigue
 from pydriver.analyses.common import REACTION_NAMES, joint_geometry
-from pydriver.assembly import bodies
 from pydriver.errors import DeckError
 
 
@@ -39,7 +38,7 @@ def sn_curve(deck) -> fatigue.SNCurve:
 
 def joint_arc_lengths(model) -> np.ndarray:
     """Arc length of every joint from clamp A [m] (joint j is where body j starts)."""
-    lengths = bodies(model.deck).lengths
+    lengths = model.description["bodies"].lengths
     return np.concatenate([[0.0], np.cumsum(lengths)[:-1]])
 
 
@@ -84,7 +83,9 @@ def _joint_row(model, ts, j, sn, record, periodic):
 def _record(model, ts, periodic: bool) -> dict:
     """How the record maps to flight hours and to the DEL's equivalent cycle count."""
     if periodic:
-        rpm = float(model.description["rotor"]["speed"]["omega"]) * 60.0 / (2.0 * np.pi)
+        # Revolutions per hour of the built model's speed (CoreModel.update may have changed it
+        # since the description was made).
+        rpm = float(model.core.parameter("rotor.omega")[0]) * 60.0 / (2.0 * np.pi)
         return {"per_hour": 60.0 * rpm, "n_equivalent": 1.0, "equivalent": "1/rev",
                 "record": "one periodic revolution"}
     duration = float(ts["t"][-1] - ts["t"][0])
