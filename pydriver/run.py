@@ -9,6 +9,7 @@ import numpy as np
 from pydriver.analyses import run
 from pydriver.model import Model
 from pydriver.output import RunDirectory, write_files
+from pydriver.progress import report as report_progress
 from pydriver.run_result import Result, require_finite
 
 
@@ -71,6 +72,7 @@ def run_deck(path, out=None, plots: bool = False, report: bool = False, vtk: boo
     with RunDirectory(Path(out), deck=model.name) as run_dir:
         result = run(model, run_dir, restart=checkpoint)
         require_finite(result, model.name)
+        report_progress("writing the files" + (" and plots" if plots else ""))
         write_files(result, run_dir, plots, table_language=model.deck["output.table_language"])
         # A time series kept on disk only (too large for memory) is read back at the frames.
         on_disk = None
@@ -78,9 +80,11 @@ def run_deck(path, out=None, plots: bool = False, report: bool = False, vtk: boo
             on_disk = next((p for p in map(run_dir.path, ("timeseries.h5", "timeseries.csv")) if p.exists()), None)
         if vtk:
             from pydriver.paraview import write_vtk
+            report_progress("writing the ParaView series (--vtk)")
             write_vtk(result, run_dir, on_disk, model)
         if report:
             from pydriver.report_html import html_report
+            report_progress("writing report.html")
             run_dir.path("report.html").write_text(html_report(result, model, on_disk), encoding="utf-8")
             result.files["report.html"] = run_dir.out / "report.html"
         run_dir.commit()

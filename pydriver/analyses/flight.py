@@ -17,8 +17,8 @@ import numpy as np
 
 from pydriver.analyses.clamp_reach import reach_error
 from pydriver.analyses.common import REACTION_NAMES, base_summary, reactions, rotor_period
-from pydriver.analyses.record_columns import chunk_columns
 from pydriver.analyses.fatigue_loads import fatigue_of_run
+from pydriver.analyses.record_columns import chunk_columns
 from pydriver.analyses.shooting import periodic_start
 from pydriver.analyses.singularity import ClosestApproach
 from pydriver.analyses.statics import equilibrium
@@ -51,12 +51,14 @@ def flight_run(model, run_dir=None) -> Result:
     with ``&solver floquet``, the Floquet stability of the revolution."""
     from pydriver.analyses.hover_modes import add_hover_modes, hover_modes, require_periodic_reachable
     from pydriver.analyses.integration_error import flight_check
+    report("flight: the hover state's modes (how many revolutions marching needs)")
     hover = hover_modes(model)
     require_periodic_reachable(model, hover)
     result = flight_analysis(model, run_dir)
     flight_check(model, result)
     add_hover_modes(model, result, hover)
     if "monodromy" in result.extra:
+        report("flight: Floquet multipliers of the monodromy")
         from pydriver.analyses.floquet import add_floquet
         add_floquet(model, result, result.extra["monodromy"], result.extra["period_s"])
     return result
@@ -109,6 +111,7 @@ def flight_analysis(model, run_dir=None) -> Result:
         raise RunError(f"deck '{model.name}': no periodic steady state within {s['max_revolutions']} revolutions "
                        f"(two successive revolutions still differ by {last} > periodic_tol = {tol:g} m); "
                        "more revolutions (max_revolutions), more damping, or a looser periodic_tol")
+    report("flight: loads at every joint over the periodic revolution")
     sample = model.core.sample(t_last, q_last, v_last)
     ts = chunk_columns(model, t_last, sample, q_last, v_last)
     files = {}
@@ -155,11 +158,14 @@ def flight_analysis(model, run_dir=None) -> Result:
         if shooting is not None:
             extra["monodromy"] = shooting["phi"]
         else:
+            report(f"flight: monodromy over one revolution ({2 * (model.nq - model.nc)} sensitivity columns, for "
+                   "the Floquet stability)")
             mono = model.core.monodromy(model.solver_settings(), 0.0, q_last[:, 0], v_last[:, 0], [period])
             extra["monodromy"] = mono["phi"]
             extra["orbit"].update(q0=mono["q0"], v0=mono["v0"], phi=mono["phi"], basis=mono["basis"])
         extra["period_s"] = period
     if "fatigue" in model.deck.groups:
+        report("flight: fatigue (rainflow around the jacket at every joint)")
         summary["fatigue"], columns = fatigue_of_run(model, ts, periodic=True)
         extra["tables"] = {"fatigue.csv": columns}
     return Result(summary=summary, timeseries=ts, extra=extra, files=files)

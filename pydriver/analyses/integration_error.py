@@ -25,6 +25,7 @@ import numpy as np
 
 from pydriver.analyses.record_columns import chunk_columns
 from pydriver.errors import DeckError, RunError
+from pydriver.progress import report
 
 #: The check's tolerances are the run's divided by this.
 TIGHTEN = 100.0
@@ -117,6 +118,7 @@ def flight_check(model, result) -> None:
     settings = check_settings(model)
     if settings is None:
         return _skip(result, f"the run is at the tightest tolerance checked (rtol {TIGHTEST:g})")
+    report(f"flight: integration error check (the last revolution again at rtol {settings['rtol']:g})")
     orbit, ts = result.extra["orbit"], result.timeseries
     period = orbit["period_s"]
     spr = len(ts["t"]) - 1
@@ -145,6 +147,7 @@ def dynamic_check(model, result, dynamic_analysis) -> None:
         return _skip(result, f"the run is at the tightest tolerance checked (rtol {TIGHTEST:g})")
     if result.timeseries is None:
         return _skip(result, "the run's time series is on disk only (too large to hold twice in memory)")
+    report(f"dynamic: integration error check (the run again at rtol {settings['rtol']:g})")
     tight = model.with_changes({"solver.rtol": settings["rtol"], "solver.atol": settings["atol"]})
     try:
         check = dynamic_analysis(tight).timeseries

@@ -42,6 +42,7 @@ from pydriver.design_measures import Evaluation, allowed_gap, forbidden_bands
 from pydriver.design_problem import OPTIMISER_KEYS, Problem, problem
 from pydriver.errors import DeckError, RunError
 from pydriver.model import Model
+from pydriver.progress import report, stage
 from pydriver.run_result import Result
 
 
@@ -108,6 +109,11 @@ class Evaluator:
 
     def _evaluate(self, p) -> Evaluation:
         self.runs += 1
+        # Each evaluation's own progress (a flight's revolutions) says which design run it is.
+        with stage(f"design run {self.runs}"):
+            return self._evaluate_design(p)
+
+    def _evaluate_design(self, p) -> Evaluation:
         if ANALYSES[self.prob.base_analysis].periodic:
             return self._evaluate_flight(p)
         model = drop_pulse(self.model_at(p))      # this design's own model
@@ -250,6 +256,10 @@ def design_analysis(model, frequency_shift_hz: float = 0.0) -> Result:
         if speeds:
             row.update(f1_hz=ev.value("f1_hz"), frequency_margin_percent=margin_percent(ev))
         history.append(row)
+        report(f"design: iteration {row['iteration']}, {prob.objective.name} = {row['objective']:.6g} "
+               f"{prob.objective.unit}" + (f", frequency margin {row['frequency_margin_percent']:.2f} % (required "
+                                           f"{prob.frequency_margin_percent:g} %)" if speeds else "")
+               + f"; {evaluate.runs} runs so far")
 
     z0 = (p0 - lower) / span
     if epigraph:

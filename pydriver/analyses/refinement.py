@@ -25,7 +25,7 @@ import numpy as np
 
 from pydriver.analyses.registry import analysis_of, sections_of
 from pydriver.errors import DeckError, RunError
-from pydriver.progress import stage
+from pydriver.progress import report, stage
 from pydriver.richardson import (TWO_GRID_SAFETY, departing_level, level_text, outside_physical_range,
                                  richardson, richardson_two)
 from pydriver.schema import GROUPS
@@ -212,6 +212,7 @@ def run_refined(model, run_dir, analyse):
         if k < levels - 1:
             coarse.append(result if diagram else result.summary)
     ns = [m.n_bodies for m in models]
+    report(f"refinement: Richardson extrapolation over n = {', '.join(map(str, ns))}")
     expected = float(model.deck["refinement.expected_order"])
     if diagram:
         from pydriver.analyses.campbell import refine_diagram
