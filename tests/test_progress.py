@@ -34,6 +34,10 @@ def test_verbose_names_levels_and_revolutions(short_flight, tmp_path):
     assert any("refinement level 1 of 2 (n = 11): started" in ln for ln in lines)
     assert any("refinement level 2 of 2 (n = 22): flight: revolution 3" in ln for ln in lines)
     assert all(ln.startswith("[") for ln in lines)             # every line timestamped, nothing else
+    # Every stage that can take a second says what it does (issue 37: 18 s of silence at the end).
+    for stage in ("the hover state's modes", "loads at every joint", "integration error check",
+                  "Richardson extrapolation", "writing the files"):
+        assert any(stage in ln for ln in lines), stage
 
 
 def test_default_is_silent_off_a_terminal_and_quiet_is_silent(short_flight, tmp_path):
