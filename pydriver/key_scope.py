@@ -268,6 +268,11 @@ SCOPES: tuple[Scope, ...] = (
     Scope(("blade.lag_extra_hz",), ("static", "modal", "dynamic", "flight")),
     Scope(("blade.azimuth0_deg",), when=_blade_azimuth,
           condition="with a rotor, and a Fourier motion (a table motion: in dynamic and flight runs)"),
+    # A Campbell diagram is of the hover state: the blade at its mean angles, no extra lead-lag
+    # (pydriver.analyses.hover_modes.hover_changes), so neither the phase of the motion nor the
+    # extra oscillation enters it.
+    Scope(("blade.lag_extra_deg", "blade.lag_extra_phase_deg", "blade.azimuth0_deg"),
+          ("static", "modal", "dynamic", "flight")),
     # result groups
     Scope(("campbell",), ("campbell",)),
     # resonance margins (modal, Campbell, flight); a design run's frequency margin takes the

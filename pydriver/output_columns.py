@@ -160,6 +160,9 @@ COLUMNS = [
     Column(("refinement.csv",), "error_estimate", "*", "its error estimate"),
     Column(("refinement.csv",), "observed_order", "-", "observed order of convergence (assumed: 2 levels)"),
     Column(("refinement.csv",), "order_observed", "-", "1: observed over 3 levels, 0: assumed"),
+    Column(("refinement.csv",), "asymptotic", "-",
+           "1: the values are in the asymptotic range (observed order near the expected one); 0: not yet, the "
+           "error estimate then covers the extrapolations with both orders"),
     # -- sweep -----------------------------------------------------------------------------------------------
     Column(SWEEP, "id", "-", "grid point"),
     Column(SWEEP, "{group}.{key}", "*", "a swept deck key (its unit from docs/deck_reference.md)"),
@@ -210,6 +213,8 @@ def unit_of(file: str, name: str, units: dict | None = None) -> str:
     col = column_of(file, name)
     if col is not None and col.unit != "*":
         return col.unit
+    if col is not None and column_of(file, "unit") is not None:
+        return "*"                          # the row's own unit, in its `unit` cell (issue 36)
     m = _FAT_STAT.match(name)
     if m:
         return {"axial_N": "N", "shear_N": "N", "bending_Nm": "Nm", "torsion_Nm": "Nm", "strain": "-"}[m.group(1)]
@@ -271,7 +276,8 @@ def outputs_markdown() -> str:
              "`pydriver.load_results` and `pydriver.output.read_csv` give the columns by their bare names "
              "(`FA_x`), as before units were added.  `{j}` is a joint or body number (from clamp A), `{k}` a "
              "mode, `{n}` a number of bodies, `{c}` one of x, y, z, `{a}` one of x, y, `{s}` a support, A or B. "
-             "A unit `*` depends on the deck (the S-N curve's quantity) or on the row (refinement.csv's and sensitivities.csv's `unit`). "
+             "A unit `*` depends on the deck (the S-N curve's quantity) or on the row (refinement.csv's and sensitivities.csv's `unit`; "
+             "their headers say `[*]` there). "
              "`timeseries.h5` (large runs, or `&solver output_format = 'hdf5'`) is netCDF4: "
              "`xarray.open_dataset(path, engine='h5netcdf')` opens it with dimensions time, body, joint, "
              "component and bending_axis; the columns below are grouped into variables `cm`, `F_A`, `M_A`, `F_B`, "

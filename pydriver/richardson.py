@@ -28,6 +28,10 @@ _MAX_EXPONENT = 700.0
 #: method for uniform reporting of grid refinement studies", J. Fluids Eng. 116, 1994, 405-413;
 #: 1.25 where three grids show the order).
 TWO_GRID_SAFETY = 3.0
+#: Roache's factor where three grids show an order (ibid.): applied to the error bar of values not
+#: yet in the asymptotic range, which covers both the expected-order and the observed-order
+#: extrapolation (issue 36: the bar must cover what the data say).
+THREE_GRID_SAFETY = 1.25
 
 
 @dataclass
@@ -196,7 +200,10 @@ def richardson(coarse: float, medium: float, fine: float, expected_order: float 
                       f"refinement) and far from the expected order {p_exp:g}: the values may not be "
                       "in the asymptotic range; extrapolated with the expected order")
     if abs(p_obs - p_exp) > tol:
-        return result(p_obs, fallback, error_at_least=abs(_correction(d_mf, r, p_obs)), warning=
+        # Not yet in the asymptotic range: the bar covers both extrapolations (the expected order's
+        # and the observed order's, which fits the three values exactly), widened by Roache's factor.
+        cover = THREE_GRID_SAFETY * max(abs(fallback - fs), abs(_correction(d_mf, r, p_obs)))
+        return result(p_obs, fallback, error_at_least=cover, warning=
                       f"observed order {p_obs:.3g} is far from the expected order {p_exp:g} "
                       f"(tolerance {tol:g}): the values may not be in the asymptotic range; "
                       "extrapolated with the expected order")

@@ -93,13 +93,15 @@ def test_refined_start_is_the_same_polygon():
 def test_far_order_is_a_warning():
     """Values converging at first order against an expected second order: extrapolated with
     the expected order, a warning that names the quantity, and an error bar that still covers
-    the true error (the observed order's correction, here the last change 1/32)."""
+    the true error: the observed order's correction (here the last change 1/32, the larger of the
+    two extrapolations' distances from the fine value) times Roache's three-grid factor 1.25."""
     summaries = [{"analysis": "modal", "frequencies_hz": [10.0 + 1.0 / n]} for n in (8, 16, 32)]
     refinement, warnings = extrapolate(summaries, [8, 16, 32], expected_order=2.0)
     q = refinement["quantities"]["f1 [Hz]"]
     assert q["observed_order"] == pytest.approx(1.0, rel=1e-9)
     assert q["warning"] and len(warnings) == 1 and "f1 [Hz]" in warnings[0]
-    assert q["error_estimate"] == pytest.approx(1.0 / 32, rel=1e-12)
+    assert q["error_estimate"] == pytest.approx(1.25 / 32, rel=1e-12)
+    assert q["asymptotic"] is False
     assert abs(q["extrapolated"] - 10.0) <= q["error_estimate"]
 
 

@@ -43,6 +43,10 @@ def run(model, run_dir=None, restart=None):
     ignored = ignored_key_warnings(model.deck)
     if ignored:
         result.summary.setdefault("warnings", []).extend(ignored)
+    # The one value of each headline quantity (converged with its error bar where refinement ran),
+    # which the summary, report.html and the limits read (pydriver.quantities).
+    from pydriver.quantities import headlines
+    result.summary["headline"] = headlines(result.summary)
     from pydriver.analyses.resonance import attach_margins
     attach_margins(model, result)
     from pydriver.analyses.limits import attach_limits

@@ -23,9 +23,10 @@ import time
 
 import numpy as np
 
-from pydriver.analyses.registry import analysis_of, sections_of
+from pydriver.analyses.registry import analysis_of
 from pydriver.errors import DeckError, RunError
 from pydriver.progress import report, stage
+from pydriver.quantities import quantities_of, unit_of
 from pydriver.richardson import (TWO_GRID_SAFETY, departing_level, level_text, outside_physical_range,
                                  richardson, richardson_two)
 from pydriver.schema import GROUPS
@@ -65,52 +66,6 @@ def refined_deck(deck, factor: int):
     return deck.with_values(changes)
 
 
-def _scalars(summary: dict) -> dict:
-    """The printed numbers of a run that refinement extrapolates, by name."""
-    out = {}
-    for i, f in enumerate(summary.get("frequencies_hz", [])[:6]):
-        out[f"f{i + 1} [Hz]"] = f
-    # Damped frequencies (joint dampers and the Coriolis coupling of a turning frame): the
-    # resonance margins are judged on them.  An overdamped mode (0 Hz) is not extrapolated.
-    for i, f in enumerate(summary.get("damped_frequencies_hz", [])[:6]):
-        if f > 0.0:
-            out[f"fd{i + 1} [Hz]"] = f
-    if "equilibrium" in sections_of(summary):        # the reactions of an equilibrium (static, modal)
-        for support, wrench in summary.get("reactions", {}).items():
-            for kind, unit in (("F", "N"), ("M", "Nm")):
-                for comp, value in zip("xyz", wrench[kind]):
-                    out[f"{kind}_{support} {comp} [{unit}]"] = value
-    for comp, value in zip("xyz", summary.get("tip_m", ()) if not summary.get("n_constraints") else ()):
-        out[f"tip {comp} [m]"] = value
-    peaks = summary.get("peaks", {})
-    for qty, unit in (("bending", "Nm"), ("torsion", "Nm"), ("axial", "N"), ("strain", "-")):
-        if qty in peaks:
-            out[f"peak {qty} [{unit}]"] = peaks[qty]["max_abs"]
-    for name, p in peaks.items():
-        if "min" in p:
-            out[f"{name} max |.|"] = max(abs(p["min"]), abs(p["max"]))
-    fat = summary.get("fatigue")
-    if fat:
-        top = fat["hotspots"][0]
-        out[f"DEL {fat['sn_quantity']}, worst joint"] = top["del_amplitude"]
-        if top["life_hours"] is not None:
-            # The shortest life over the cable (its worst joint may be another at each n).
-            out["fatigue life [h], shortest"] = top["life_hours"]
-        for c in fat["clamp_loads"]:
-            out[f"DEL {c['quantity']}"] = c["del_amplitude"]
-    decay = summary.get("decay") or {}
-    if "f_damped_hz" in decay:
-        out["decay f_damped [Hz]"] = decay["f_damped_hz"]
-    return out
-
-
-def _non_negative(name: str) -> bool:
-    """Whether a quantity of :func:`_scalars` cannot be negative (a frequency, a peak or an
-    amplitude, a DEL, a life), so that its extrapolation must not be either
-    (:func:`pydriver.richardson.outside_physical_range`); reactions and tip coordinates are signed."""
-    return name.startswith(("f", "peak", "DEL", "decay")) or name.endswith("max |.|")
-
-
 def extrapolate(summaries: list, ns: list, expected_order: float) -> tuple[dict, list]:
     """summary['refinement'] and its warnings from the summaries of the runs at ns = (n, 2n, 4n ...).
 
@@ -120,7 +75,8 @@ def extrapolate(summaries: list, ns: list, expected_order: float) -> tuple[dict,
     safety factor (:func:`pydriver.richardson.richardson_two`); each entry says
     ``order_observed = False`` and one warning says it for all.
     """
-    per_run = [_scalars(s) for s in summaries]
+    per_run = [{name: value for name, (_, value) in quantities_of(s).items()} for s in summaries]
+    kinds = {name: q for name, (q, _) in quantities_of(summaries[-1]).items()}
     names = [k for k in per_run[-1] if all(k in p for p in per_run)]
     quantities, doubtful, refused = {}, {"oscillating": [], "order": []}, []
     for name in names:
@@ -129,17 +85,19 @@ def extrapolate(summaries: list, ns: list, expected_order: float) -> tuple[dict,
             continue
         e = (richardson_two(*values, expected_order=expected_order) if len(values) == 2 else
              richardson(*values[-3:], expected_order=expected_order))
-        why = outside_physical_range(e) if _non_negative(name) else None
+        why = outside_physical_range(e) if kinds[name].nonnegative else None
         if why is not None:
             refused.append(f"{name} ({', '.join(f'{v:.4g}' for v in values)} -> {e.extrapolated:.4g} +- "
                            f"{e.error_estimate:.3g}: {why}; {level_text(departing_level(values), ns)} departs)")
             continue
+        # "asymptotic": the values behave like f0 + C h^p with the observed order near the expected
+        # one (no warning); two levels cannot show it.
+        entry = {"unit": kinds[name].unit, "values": values, "extrapolated": e.extrapolated,
+                 "observed_order": e.observed_order, "error_estimate": e.error_estimate}
         if len(values) == 2:
-            quantities[name] = {"values": values, "extrapolated": e.extrapolated, "observed_order": e.observed_order,
-                                "order_observed": False, "error_estimate": e.error_estimate, "warning": ""}
+            quantities[name] = {**entry, "order_observed": False, "asymptotic": False, "warning": ""}
             continue
-        quantities[name] = {"values": values, "extrapolated": e.extrapolated, "observed_order": e.observed_order,
-                            "order_observed": True, "error_estimate": e.error_estimate, "warning": e.warning or ""}
+        quantities[name] = {**entry, "order_observed": True, "asymptotic": not e.warning, "warning": e.warning or ""}
         if e.warning:
             doubtful["oscillating" if "oscillating" in e.warning else "order"].append(name)
     # One warning per kind, naming the quantities (each one's reason is in its entry).
@@ -165,12 +123,13 @@ def refinement_table(refinement: dict) -> dict:
     """refinement.csv: one row per quantity."""
     q = refinement["quantities"]
     names = list(q)
-    # The quantity's unit in a column of its own ("peak bending [Nm]" -> "peak bending", "Nm").
-    split = [re.fullmatch(r"(.*?)(?: \[([^\]]*)\])?", k).groups() for k in names]
-    cols = {"quantity": [a for a, _ in split], "unit": [b or "-" for _, b in split]}
+    # The quantity's name without its "[unit]", and its unit (pydriver.quantities) in a column of
+    # its own ("peak bending [Nm]" -> "peak bending", "Nm"; "DEL MB_x" -> "DEL MB_x", "Nm").
+    cols = {"quantity": [re.fullmatch(r"(.*?)(?: \[[^\]]*\])?", k).group(1) for k in names],
+            "unit": [q[k].get("unit") or unit_of(k) for k in names]}
     for i, n in enumerate(refinement["n"]):
         cols[f"n{n}"] = [q[k]["values"][i] for k in names]
-    for key in ("extrapolated", "error_estimate", "observed_order", "order_observed"):
+    for key in ("extrapolated", "error_estimate", "observed_order", "order_observed", "asymptotic"):
         cols[key] = [q[k].get(key) for k in names]
     return cols
 
