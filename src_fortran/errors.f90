@@ -3,7 +3,7 @@
 module rotorcable_errors
   implicit none
   private
-  public :: error_type, fatal_error, clear_error, sundials_flag_error
+  public :: error_type, fatal_error, sundials_flag_error
 
   !> Status of an operation: code 0 means success.
   type :: error_type
@@ -40,13 +40,5 @@ contains
     write (buf, '(i0)') status
     call fatal_error(error, 'SUNDIALS '//what//' failed with flag '//trim(buf)//': '//trim(solver_message))
   end subroutine sundials_flag_error
-
-  !> Reset a status to success.
-  pure subroutine clear_error(error)
-    type(error_type), intent(inout) :: error     !< status to reset
-    error%code = 0
-    error%message = ''
-    error%key = ''
-  end subroutine clear_error
 
 end module rotorcable_errors

@@ -16,9 +16,9 @@ module rotorcable_ida_binding
             IDASetMaxNumSteps, IDASetMaxStep, IDASetStopTime, IDASolve, IDAReInit, IDAFree, &
             IDAGetNumSteps, IDAGetNumResEvals, IDAGetNumJacEvals, IDAGetNumLinResEvals, &
             IDAGetNumErrTestFails, IDAGetNumNonlinSolvConvFails, IDASetErrHandlerFn, IDA_NORMAL, &
-            IDASetJacFn, SUNDenseMatrix_Data, IDAGetNumLinSolvSetups, IDAGetCurrentCj, IDAGetCurrentY, &
+            IDASetJacFn, SUNDenseMatrix_Data, IDAGetCurrentCj, IDAGetCurrentY, &
             IDAGetCurrentTime, IDASensInit, IDASensSVtolerances, IDASetSensErrCon, &
-            IDAGetSens, IDASensFree, IDASensReInit, IDAGetSensNumResEvals, IDAGetSensNumNonlinSolvIters, &
+            IDAGetSens, IDASensFree, IDASensReInit, IDAGetSensNumResEvals, &
             IDA_STAGGERED, IDASetInitStep, IDASetNonlinearSolverSensStg, SUNNonlinSolNewEmpty, SUNNonlinSolFreeEmpty, &
             N_VClone, N_VScale, N_VLinearSum, N_VConst, &
             SUN_NLS_SUCCESS, SUN_NLS_CONTINUE, SUN_NLS_CONV_RECVR, SUN_NLS_MEM_NULL
@@ -215,11 +215,6 @@ module rotorcable_ida_binding
       import :: c_ptr
       type(c_ptr), value :: a
     end function SUNDenseMatrix_Data
-    integer(c_int) function IDAGetNumLinSolvSetups(mem, n) bind(C, name='IDAGetNumLinSolvSetups')
-      import :: c_int, c_ptr, c_long
-      type(c_ptr), value :: mem
-      integer(c_long) :: n
-    end function IDAGetNumLinSolvSetups
     integer(c_int) function IDAGetCurrentCj(mem, cj) bind(C, name='IDAGetCurrentCj')
       import :: c_int, c_ptr, c_double
       type(c_ptr), value :: mem
@@ -276,11 +271,6 @@ module rotorcable_ida_binding
       type(c_ptr), value :: mem
       integer(c_long) :: n
     end function IDAGetSensNumResEvals
-    integer(c_int) function IDAGetSensNumNonlinSolvIters(mem, n) bind(C, name='IDAGetSensNumNonlinSolvIters')
-      import :: c_int, c_ptr, c_long
-      type(c_ptr), value :: mem
-      integer(c_long) :: n
-    end function IDAGetSensNumNonlinSolvIters
     !> Replace the staggered sensitivity corrector's nonlinear solver (rotorcable_sensitivity_newton).
     integer(c_int) function IDASetNonlinearSolverSensStg(mem, nls) bind(C, name='IDASetNonlinearSolverSensStg')
       import :: c_int, c_ptr

@@ -26,7 +26,7 @@ module rotorcable_joint
   implicit none
   private
   public :: JOINT_ZY, JOINT_XY, JOINT_XYZ, MAX_JOINT_DOF, joint_ndof, joint_rotation, joint_axes, &
-            joint_bias, joint_bias_tangent, joint_name, thesis_angles, angles_from_thesis
+            joint_bias, joint_bias_tangent, thesis_angles, angles_from_thesis
 
   !> Thesis two-angle joint: R_rel = Rz(gamma) Ry(beta), coordinates (gamma, beta).
   integer, parameter :: JOINT_ZY = 1
@@ -51,22 +51,6 @@ contains
       joint_ndof = 0
     end select
   end function joint_ndof
-
-  !> Name of a parametrisation, for messages and documentation.
-  pure function joint_name(kind) result(name)
-    integer, intent(in) :: kind        !< parametrisation
-    character(len=:), allocatable :: name
-    select case (kind)
-    case (JOINT_ZY)
-      name = 'zy (gamma about z, then beta about new y; thesis 4.1.1)'
-    case (JOINT_XY)
-      name = 'xy (Cardan bending: phi about x, then theta about new y; thesis chapter 6 outlook)'
-    case (JOINT_XYZ)
-      name = 'xyz (Cardan bending phi, theta, then the twist psi about the body axis)'
-    case default
-      name = 'unknown'
-    end select
-  end function joint_name
 
   !> Relative rotation parent -> child (active), eq. 4.7/4.8 transposed.
   pure function joint_rotation(kind, angles) result(r_rel)

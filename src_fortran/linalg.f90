@@ -5,7 +5,7 @@ module rotorcable_linalg
   implicit none
   private
   public :: solve_dense, solve_least_norm, null_space, solve_spd, singular_values, thin_svd, all_finite
-  public :: dgetrf, dgetrs, dgemv, dgemm   ! factors kept across solves, products (linear solvers)
+  public :: dgetrf, dgetrs, dgemm   ! factors kept across solves, products (linear solvers)
   public :: lu_solve, small_gemv
 
   interface
@@ -46,13 +46,6 @@ module rotorcable_linalg
       real(dp), intent(inout) :: b(ldb, *)
       integer, intent(out) :: info
     end subroutine dgetrs
-    subroutine dgemv(trans, m, n, alpha, a, lda, x, incx, beta, y, incy)
-      import :: dp
-      character, intent(in) :: trans
-      integer, intent(in) :: m, n, lda, incx, incy
-      real(dp), intent(in) :: alpha, beta, a(lda, *), x(*)
-      real(dp), intent(inout) :: y(*)
-    end subroutine dgemv
     subroutine dgemm(transa, transb, m, n, k, alpha, a, lda, b, ldb, beta, c, ldc)
       import :: dp
       character, intent(in) :: transa, transb

@@ -1,13 +1,13 @@
 !> Elementary rotations and small 3-vector helpers.
 !>
 !> All matrices here are *active* rotations (world <- body).  The thesis writes the
-!> passive transforms A (eq. 4.5-4.8), which are the transposes of these:
-!> A(gamma) = rot_z(gamma)^T, A(beta) = rot_y(beta)^T.
+!> passive transforms A (eq. 4.5-4.8), which are the transposes of these: A(gamma) =
+!> rot_z(gamma)^T (the joints' products Rz Ry, Rx Ry are written out in joint_rotation).
 module rotorcable_rotations
   use rotorcable_kinds, only: dp
   implicit none
   private
-  public :: rot_y, rot_z, cross, skew, vee, identity3, rotation_log, rotation_exp, transposed_times
+  public :: rot_z, cross, skew, vee, identity3, rotation_log, rotation_exp, transposed_times
 
 contains
 
@@ -21,17 +21,6 @@ contains
     r(:, 2) = [-s, c, 0.0_dp]
     r(:, 3) = [0.0_dp, 0.0_dp, 1.0_dp]
   end function rot_z
-
-  !> Active rotation about y by angle b (transpose of thesis eq. 4.6).
-  pure function rot_y(b) result(r)
-    real(dp), intent(in) :: b          !< angle [rad]
-    real(dp) :: r(3, 3)
-    real(dp) :: c, s
-    c = cos(b); s = sin(b)
-    r(:, 1) = [c, 0.0_dp, -s]
-    r(:, 2) = [0.0_dp, 1.0_dp, 0.0_dp]
-    r(:, 3) = [s, 0.0_dp, c]
-  end function rot_y
 
   !> Cross product a x b.
   pure function cross(a, b) result(c)

@@ -30,13 +30,13 @@ module rotorcable_loads_rotation_springs
   use rotorcable_kinematics, only: chain_state
   use rotorcable_kinematics_tangent, only: chain_tangent
   use rotorcable_frame, only: frame_state
-  use rotorcable_rotations, only: skew, identity3, cross, transposed_times
+  use rotorcable_rotations, only: cross, transposed_times
   use rotorcable_loads_type, only: load_term, load_slot
   use rotorcable_parameter_block, only: parameter_block, get_reals
   use rotorcable_loads_spring_constants, only: set_spring_constants, get_spring_constants
   implicit none
   private
-  public :: rotation_springs_load, new_rotation_springs, joint_rotation_vector, right_jacobian_inverse
+  public :: rotation_springs_load, new_rotation_springs, joint_rotation_vector
 
   !> Stiffness and damping per free joint, about its child's axes (bending x, y; twist z).
   type, extends(load_term) :: rotation_springs_load
@@ -154,16 +154,6 @@ contains
     a(:, 3) = [0.0_dp, 0.0_dp, 1.0_dp]
     call jacobian_coefficient(norm2(phi), c, dc_da)
   end subroutine joint_terms
-
-  !> J_r^-1(phi) = I + skew(phi)/2 + c(|phi|) skew(phi)^2 (jacobian_coefficient).
-  pure function right_jacobian_inverse(phi) result(jinv)
-    real(dp), intent(in) :: phi(3)            !< rotation vector [rad]
-    real(dp) :: jinv(3, 3)
-    real(dp) :: coef, dcoef, p(3, 3)
-    call jacobian_coefficient(norm2(phi), coef, dcoef)
-    p = skew(phi)
-    jinv = identity3() + 0.5_dp*p + coef*matmul(p, p)
-  end function right_jacobian_inverse
 
   !> J_r^-T(phi) K phi = K phi - phi x K phi / 2 + c phi x (phi x K phi), written with cross
   !> products (skew(phi)^T = -skew(phi)).
