@@ -1,9 +1,12 @@
-!> The f2py boundary: one flat module of scalars and explicit-shape arrays (STYLE.md 5).
+!> The f2py boundary: one flat module of scalars and explicit-shape arrays, each argument with
+!> its intent, and no derived type (f2py cannot wrap one); everything else stays behind it.
 !> Python hands the validated description of a deck to the core once (rc_model_*), gets a
-!> handle back, and runs every analysis on that handle; nothing here reads a file.
-!> Every routine returns stat (0 = ok, 1 = bad input, 2 = run failed), the input at fault as
-!> 'group.key' (bad input only) and a message; pydriver/core.py is the only Python module
-!> that calls these routines and unpacks their results.
+!> handle back, and runs every analysis on that handle; nothing here reads a file, so what
+!> crosses is the model, never a path the core would parse again.
+!> Every routine that can fail returns stat (0 = ok, 1 = bad input, 2 = run failed), the input
+!> at fault as 'group.key' (bad input only) and a message (rc_model_free and rc_dynamic_free
+!> cannot fail and return nothing); pydriver/core.py is the only Python module that calls
+!> these routines and unpacks their results.
 module rotorcable_api
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use rotorcable_kinds, only: dp

@@ -225,8 +225,9 @@ contains
     yd(1:nq) = v0; yd(nq + 1:2*nq) = vdot
     ! Differential (1) for q and v, algebraic (0) for lambda and mu.
     idv = 0.0_dp; idv(1:2*nq) = 1.0_dp
-    ! Loose absolute tolerances on the multipliers: they only steer the Newton test,
-    ! an atol of 1e-10 there makes IDA fail at the first step (TOOLCHAIN.md).
+    ! Loose absolute tolerances on the multipliers: they only steer the Newton test; an atol
+    ! of 1e-10 on every variable makes IDA fail at the first step (IDA_CONV_FAIL at h ~ 3e-15,
+    ! SUNDIALS 6.4.1 on the GGL index-2 system).
     av = settings%atol_multiplier; av(1:2*nq) = settings%atol
 
     s%mem = IDACreate(s%ctx)

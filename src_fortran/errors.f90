@@ -1,5 +1,6 @@
-!> Error reporting without stopping: library code returns a status and a message
-!> (STYLE.md rule 4; a `stop` would kill the Python interpreter).
+!> Error reporting without stopping: library code never stops, it returns a status and a
+!> message, and the Python layer raises them as an exception naming the deck and the key (a
+!> `stop` or `error stop` in a routine called from Python would end the interpreter).
 module rotorcable_errors
   implicit none
   private

@@ -1,5 +1,5 @@
 !> Hand-written iso_c_binding interfaces to the SUNDIALS 6.4 C API used by rotorcable
-!> (Debian's libsundials-dev ships no Fortran modules; see ../shared/TOOLCHAIN.md).
+!> (Debian's libsundials-dev ships no Fortran modules, so SUNDIALS's own fida_mod cannot be used).
 !> sunindextype is int64_t, realtype double, booleantype int, "long int" is c_long.
 !> The library linked is IDAS 5.4.1 (meson.build), which holds the IDA 6.4.1 API under the same
 !> names and prototypes plus the forward-sensitivity functions (IDASens*) used by

@@ -165,7 +165,7 @@ contains
       end do
       ! Every block as the state's: q and v differential with atol (the sensitivities are per
       ! unit of x, rad and rad/s), lambda and mu algebraic with the loose atol_multiplier and
-      ! out of the error test (IDASetSuppressAlg; TOOLCHAIN.md).
+      ! out of the error test (IDASetSuppressAlg; as in dae_integrator.f90's session_start).
       do k = 0, ns
         j = k*n
         idv(j + 1:j + 2*nq) = 1.0_dp; idv(j + 2*nq + 1:j + n) = 0.0_dp
