@@ -97,14 +97,7 @@ contains
                                ni, ints, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
     character(len=*), intent(in) :: kind          !< load kind
-    character(len=*), intent(in) :: real_names    !< names of the real arrays, blank-separated
-    integer(c_int), intent(in) :: nrn, nr         !< how many real arrays, real values
-    integer(c_int), intent(in) :: real_sizes(nrn) !< size of each real array
-    real(c_double), intent(in) :: reals(nr)       !< their values, one after the other
-    character(len=*), intent(in) :: int_names     !< names of the integer arrays
-    integer(c_int), intent(in) :: nin, ni         !< how many integer arrays, integer values
-    integer(c_int), intent(in) :: int_sizes(nin)  !< size of each integer array
-    integer(c_int), intent(in) :: ints(ni)        !< their values
+    include 'flat_block_arguments.inc'
     integer(c_int), intent(out) :: stat           !< status
     character(len=64), intent(out) :: key         !< input at fault
     character(len=1024), intent(out) :: msg       !< why
@@ -122,14 +115,7 @@ contains
   !> rc_model_add_load (rotorcable_model_builder, build_base).
   subroutine rc_model_set_base(handle, real_names, nrn, real_sizes, nr, reals, int_names, nin, int_sizes, ni, ints, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
-    character(len=*), intent(in) :: real_names    !< names of the real arrays, blank-separated
-    integer(c_int), intent(in) :: nrn, nr         !< how many real arrays, real values
-    integer(c_int), intent(in) :: real_sizes(nrn) !< size of each real array
-    real(c_double), intent(in) :: reals(nr)       !< their values, one after the other
-    character(len=*), intent(in) :: int_names     !< names of the integer arrays
-    integer(c_int), intent(in) :: nin, ni         !< how many integer arrays, integer values
-    integer(c_int), intent(in) :: int_sizes(nin)  !< size of each integer array
-    integer(c_int), intent(in) :: ints(ni)        !< their values
+    include 'flat_block_arguments.inc'
     integer(c_int), intent(out) :: stat           !< status
     character(len=64), intent(out) :: key         !< input at fault
     character(len=1024), intent(out) :: msg       !< why
@@ -149,14 +135,7 @@ contains
                                   ni, ints, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
     character(len=*), intent(in) :: kind          !< support kind
-    character(len=*), intent(in) :: real_names    !< names of the real arrays, blank-separated
-    integer(c_int), intent(in) :: nrn, nr         !< how many real arrays, real values
-    integer(c_int), intent(in) :: real_sizes(nrn) !< size of each real array
-    real(c_double), intent(in) :: reals(nr)       !< their values, one after the other
-    character(len=*), intent(in) :: int_names     !< names of the integer arrays
-    integer(c_int), intent(in) :: nin, ni         !< how many integer arrays, integer values
-    integer(c_int), intent(in) :: int_sizes(nin)  !< size of each integer array
-    integer(c_int), intent(in) :: ints(ni)        !< their values
+    include 'flat_block_arguments.inc'
     integer(c_int), intent(out) :: stat           !< status
     character(len=64), intent(out) :: key         !< input at fault
     character(len=1024), intent(out) :: msg       !< why
@@ -174,14 +153,7 @@ contains
   !> rc_model_add_load (rotorcable_model_builder, build_rotor).
   subroutine rc_model_set_rotor(handle, real_names, nrn, real_sizes, nr, reals, int_names, nin, int_sizes, ni, ints, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
-    character(len=*), intent(in) :: real_names    !< names of the real arrays, blank-separated
-    integer(c_int), intent(in) :: nrn, nr         !< how many real arrays, real values
-    integer(c_int), intent(in) :: real_sizes(nrn) !< size of each real array
-    real(c_double), intent(in) :: reals(nr)       !< their values, one after the other
-    character(len=*), intent(in) :: int_names     !< names of the integer arrays
-    integer(c_int), intent(in) :: nin, ni         !< how many integer arrays, integer values
-    integer(c_int), intent(in) :: int_sizes(nin)  !< size of each integer array
-    integer(c_int), intent(in) :: ints(ni)        !< their values
+    include 'flat_block_arguments.inc'
     integer(c_int), intent(out) :: stat           !< status
     character(len=64), intent(out) :: key         !< input at fault
     character(len=1024), intent(out) :: msg       !< why
@@ -406,19 +378,13 @@ contains
     call report(error, stat, key, msg)
   end subroutine rc_modal_matrices
 
-  !> Start a time integration from (q0, v0) at t0 (made consistent: returned in q, v).
+  !> Start a time integration from (q0, v0) at t0 (made consistent: returned in q, v), with the
+  !> integrator settings as a parameter block sent flat (pydriver/components.py SOLVER; so for
+  !> rc_monodromy and rc_parameter_sensitivity).
   subroutine rc_dynamic_start(handle, real_names, nrn, real_sizes, nr, reals, int_names, nin, int_sizes, ni, ints, &
                               t0, nq, q0, v0, session, q, v, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
-    character(len=*), intent(in) :: real_names    !< solver settings (pydriver/components.py SOLVER): names of
-                                                  !< the real arrays, blank-separated
-    integer(c_int), intent(in) :: nrn, nr         !< how many real arrays, real values
-    integer(c_int), intent(in) :: real_sizes(nrn) !< size of each real array
-    real(c_double), intent(in) :: reals(nr)       !< their values, one after the other
-    character(len=*), intent(in) :: int_names     !< names of the integer arrays (words as character codes)
-    integer(c_int), intent(in) :: nin, ni         !< how many integer arrays, integer values
-    integer(c_int), intent(in) :: int_sizes(nin)  !< size of each integer array
-    integer(c_int), intent(in) :: ints(ni)        !< their values
+    include 'flat_block_arguments.inc'
     real(c_double), intent(in) :: t0              !< start time [s]
     integer(c_int), intent(in) :: nq              !< coordinates
     real(c_double), intent(in) :: q0(nq), v0(nq)  !< start state
@@ -534,15 +500,7 @@ contains
                           t0, nq, q0, v0, nt, t, nf, q, v, &
                           q_start, v_start, basis, phi, stats, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
-    character(len=*), intent(in) :: real_names    !< solver settings (pydriver/components.py SOLVER): names of
-                                                  !< the real arrays, blank-separated
-    integer(c_int), intent(in) :: nrn, nr         !< how many real arrays, real values
-    integer(c_int), intent(in) :: real_sizes(nrn) !< size of each real array
-    real(c_double), intent(in) :: reals(nr)       !< their values, one after the other
-    character(len=*), intent(in) :: int_names     !< names of the integer arrays (words as character codes)
-    integer(c_int), intent(in) :: nin, ni         !< how many integer arrays, integer values
-    integer(c_int), intent(in) :: int_sizes(nin)  !< size of each integer array
-    integer(c_int), intent(in) :: ints(ni)        !< their values
+    include 'flat_block_arguments.inc'
     real(c_double), intent(in) :: t0              !< start time [s]
     integer(c_int), intent(in) :: nq, nt, nf      !< coordinates, output times, nq - nc
     real(c_double), intent(in) :: q0(nq), v0(nq)  !< start state
@@ -633,15 +591,7 @@ contains
                                       tolerance_scale, sq0, sv0, nt, t, q, v, &
                                       q_start, v_start, sq, sv, sq_start, sv_start, stats, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
-    character(len=*), intent(in) :: real_names    !< solver settings (pydriver/components.py SOLVER): names of
-                                                  !< the real arrays, blank-separated
-    integer(c_int), intent(in) :: nrn, nr         !< how many real arrays, real values
-    integer(c_int), intent(in) :: real_sizes(nrn) !< size of each real array
-    real(c_double), intent(in) :: reals(nr)       !< their values, one after the other
-    character(len=*), intent(in) :: int_names     !< names of the integer arrays (words as character codes)
-    integer(c_int), intent(in) :: nin, ni         !< how many integer arrays, integer values
-    integer(c_int), intent(in) :: int_sizes(nin)  !< size of each integer array
-    integer(c_int), intent(in) :: ints(ni)        !< their values
+    include 'flat_block_arguments.inc'
     real(c_double), intent(in) :: t0              !< start time [s]
     integer(c_int), intent(in) :: nq, np, npts, nt  !< coordinates, parameters, difference points, output times
     real(c_double), intent(in) :: q0(nq), v0(nq)  !< start state

@@ -486,21 +486,14 @@ contains
   !> One timed integration from a consistent start (q0, v0) at t0 to t_end, for the
   !> work-precision comparison: method 1 = IDA on the GGL index-2 DAE (the default route),
   !> 2 = GSL rk8pd and 3 = GSL msbdf on the Baumgarte-stabilised index-1 ODE (thesis route).
-  !> Only the integration is timed; returns the CMs at ns equally spaced samples.
+  !> Only the integration is timed; returns the CMs at ns equally spaced samples.  The integrator
+  !> settings come as a parameter block sent flat (pydriver/components.py SOLVER).
   subroutine rc_probe_integrate(handle, method, real_names, nrn, real_sizes, nr, reals, int_names, nin, int_sizes, ni, &
                                 ints, baumgarte_omega, &
                                 t0, t_end, nq, q0, v0, ns, nb, cm_samples, q_end, v_end, stats, cpu_s, wall_s, stat, msg)
     integer(c_int), intent(in) :: handle          !< model handle
     integer(c_int), intent(in) :: method          !< 1 IDA-GGL, 2 GSL rk8pd, 3 GSL msbdf
-    character(len=*), intent(in) :: real_names    !< solver settings (pydriver/components.py SOLVER): names of
-                                                  !< the real arrays, blank-separated
-    integer(c_int), intent(in) :: nrn, nr         !< how many real arrays, real values
-    integer(c_int), intent(in) :: real_sizes(nrn) !< size of each real array
-    real(c_double), intent(in) :: reals(nr)       !< their values, one after the other
-    character(len=*), intent(in) :: int_names     !< names of the integer arrays (words as character codes)
-    integer(c_int), intent(in) :: nin, ni         !< how many integer arrays, integer values
-    integer(c_int), intent(in) :: int_sizes(nin)  !< size of each integer array
-    integer(c_int), intent(in) :: ints(ni)        !< their values
+    include 'flat_block_arguments.inc'
     real(c_double), intent(in) :: baumgarte_omega !< Baumgarte constant of the ODE route [1/s]
     real(c_double), intent(in) :: t0, t_end       !< start and end [s]
     integer(c_int), intent(in) :: nq              !< coordinates
