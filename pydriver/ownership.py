@@ -30,9 +30,10 @@ without ``..`` and, for any kind but a sweep, directly inside the directory; a l
 counts only where the directory holds a regular file under it (not a link, not through one).
 An old marker without a kind is a run's (run directories of earlier versions keep working).
 
-Never delete what you cannot prove is yours: the rule git, rsync and OpenFAST's writers follow
-(``../shared/STYLE.md``).  :mod:`pydriver.run_directory` writes runs and studies through this
-module, :mod:`pydriver.sweep.layout` sweeps, :mod:`pydriver.examples` the example decks.
+Never overwrite or delete what you cannot prove is yours: the rule of the tools users trust
+with their files (git, rsync, OpenFAST's output writers).  :mod:`pydriver.run_directory` writes
+runs and studies through this module, :mod:`pydriver.sweep.layout` sweeps,
+:mod:`pydriver.examples` the example decks.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """`pip install .` (meson-python, non-editable) builds a wheel whose extension imports.
 
-TOOLCHAIN.md: a missing SUNDIALS library links fine and only fails at import, so the
+A missing SUNDIALS library links fine and only fails at import (undefined symbol), so the
 installed wheel is imported and run once from outside the source tree.  The product wheel is
 built without the test and benchmark probes (meson option ``probes``, default off; issue 23):
 these tests check that its extension has none and that it runs decks without them.
