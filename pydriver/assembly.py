@@ -18,11 +18,8 @@ import numpy as np
 from pydriver.components import add_loads, support_motion_parameters, support_of
 from pydriver.core import CoreModel
 from pydriver.deckfile import Deck
-from pydriver.motions import blade_azimuth0, rot_y, rot_z, rotor, rotor_parameters, support_motion
+from pydriver.motions import DEG, blade_azimuth0, rot_y, rot_z, rotor, rotor_parameters, support_motion
 from pydriver.shape_resample import chain_lengths
-
-DEG = np.pi / 180.0
-RPM = 2.0 * np.pi / 60.0
 
 
 @dataclass

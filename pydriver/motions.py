@@ -18,6 +18,8 @@ import numpy as np
 from pydriver.deckfile import Deck
 from pydriver.schema import lookup
 
+#: One degree [rad] and one revolution per minute [rad/s]: the decks' units of angles and rotor
+#: speeds in SI, defined once (pydriver.assembly, components and the Campbell diagram import them).
 DEG = np.pi / 180.0
 RPM = 2.0 * np.pi / 60.0
 
