@@ -60,11 +60,6 @@ def report(text: str) -> None:
         _REPORTER.emit(text)
 
 
-def current_stage() -> str:
-    """The stage messages are prefixed with now (e.g. ``"level 2 of 3 (n = 22): "``)."""
-    return _REPORTER.prefix
-
-
 @contextmanager
 def run_progress(name: str):
     """Around one deck's run: restarts the clock, clears the line at the end."""
