@@ -2,7 +2,7 @@
 the Fortran core (the integration alone: no deck reading, no start equilibrium, no outputs),
 and the check that the run did the work (steps taken, a finite answer).
 
-The timed integration is a core probe (``CoreModel.integrate_timed``): it needs a build with the
+The timed integration is a core probe (``pydriver.core_probes.integrate_timed``): it needs a build with the
 meson option ``probes`` on (``bash .ci/setup``), not the product wheel."""
 
 from __future__ import annotations
@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 import pydriver
+from pydriver import core_probes as probes
 from pydriver.analyses.dynamics import start_state
 from pydriver.model import resolve_linear_solver
 
@@ -34,7 +35,7 @@ def timed_run(model, q0, v0, t_end: float, method: str = "rotorcable-IDA", rtol:
     settings = model.solver_settings()
     settings.update(rtol=rtol, atol=rtol * 1e-2 if atol is None else atol, **solver)
     settings["linear_solver"] = resolve_linear_solver(settings["linear_solver"], model.nq)
-    out = model.core.integrate_timed(METHODS[method], settings, 0.0, t_end, q0, v0, samples, baumgarte)
+    out = probes.integrate_timed(model.core, METHODS[method], settings, 0.0, t_end, q0, v0, samples, baumgarte)
     if out["stats"]["steps"] <= 0 or not np.all(np.isfinite(out["cm_samples"])):
         raise NoWorkDone(f"{model.name}, {method}, rtol {rtol:g}: {out['stats']['steps']} steps; no work done")
     end = model.core.sample([t_end], out["q_end"][:, None], out["v_end"][:, None])

@@ -79,6 +79,7 @@ def measure_one(n: int, repeat: int, block: bool, dense: bool, sets: dict) -> di
     import resource
 
     from harness import prepared, timed_run
+    from pydriver import core_probes as probes
     with tempfile.TemporaryDirectory() as tmp:
         model, q0, v0, _ = prepared(deck_for(n, Path(tmp) / f"n{n}.nml", sets))
     walls, stats = [], None
@@ -94,11 +95,11 @@ def measure_one(n: int, repeat: int, block: bool, dense: bool, sets: dict) -> di
     wall_block, steps_block = other("block", block)
     wall_dense, _ = other("dense", dense)
     nq, nc = model.nq, model.nc
-    y, yd = model.core.consistent_ggl_state(q0, v0)
-    kern = model.core.time_kernels(y, yd, max(200, 200000 // n))
+    y, yd = probes.consistent_ggl_state(model.core, q0, v0)
+    kern = probes.time_kernels(model.core, y, yd, max(200, 200000 // n))
     rhs = np.random.default_rng(0).standard_normal((2 * nq + 2 * nc, 1))
-    it = model.core.iteration_matrix(y, yd, 1.0e4, rhs, max(3, 20000 // n))
-    chain = model.core.chain_solver(y, 1.0e4, rhs, max(20, 20000 // n))
+    it = probes.iteration_matrix(model.core, y, yd, 1.0e4, rhs, max(3, 20000 // n))
+    chain = probes.chain_solver(model.core, y, 1.0e4, rhs, max(20, 20000 // n))
     rss_kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return {"n_bodies": n, "n_unknowns": 2 * nq + 2 * nc, "wall_per_sim_s": float(np.median(walls)) / T_SIM,
             "wall_per_sim_s_block": wall_block, "steps_block": steps_block,

@@ -25,10 +25,10 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):
 from pydriver.errors import DeckError, OutputError, RunError
 from pydriver.model import Model
 from pydriver.run_result import Result
-from pydriver.run import deck_info, evaluate_model, run_deck, shape
+from pydriver.run import deck_info, run_deck, shape
 from pydriver.stored_results import load_results
 from pydriver.scene import Scene, scene
 from pydriver.sweep import SweepError, run_sweep
 
-__all__ = ["DeckError", "OutputError", "RunError", "Result", "Model", "deck_info", "run_deck", "evaluate_model", "shape",
+__all__ = ["DeckError", "OutputError", "RunError", "Result", "Model", "deck_info", "run_deck", "shape",
            "Scene", "scene", "load_results", "run_sweep", "SweepError"]

@@ -1,10 +1,14 @@
-"""The one Python module that calls the compiled core (``pydriver._rotorcable``, f2py) and
-unpacks its positional results.  Everything else works with :class:`CoreModel` and
-:class:`CoreSession` and gets named numpy arrays and exceptions back.
+"""The one Python module of the driver that calls the compiled core's run API
+(``pydriver._rotorcable``, f2py: ``src_fortran/api.f90``) and unpacks its positional results.
+Everything else works with :class:`CoreModel` and :class:`CoreSession` and gets named numpy
+arrays and exceptions back.  The test and benchmark probes (``src_fortran/probes.f90``) are
+:mod:`pydriver.core_probes`, which only the tests and benchmarks import; it unpacks their
+results with the helpers here.
 
-Every core routine returns a status: 0 ok; 1 bad input (with the input at fault as
-``group.key``), raised as :class:`~pydriver.errors.DeckError`; 2 a failed computation, raised
-as :class:`~pydriver.errors.RunError`.
+Every core routine that can fail returns a status: 0 ok; 1 bad input (with the input at fault
+as ``group.key``), raised as :class:`~pydriver.errors.DeckError`; 2 a failed computation,
+raised as :class:`~pydriver.errors.RunError`.  Freeing a model or a session cannot fail and
+returns nothing.
 """
 
 from __future__ import annotations
@@ -46,30 +50,13 @@ class _FpeTrapped:
         return trapped
 
 
-class ProbesNotBuilt(RuntimeError):
-    """A test or benchmark probe was called in a build without them (-Dprobes=false, the default
-    of ``pip install .``)."""
+def _trapped_if_asked(module):
+    """``module``, or its routines with floating-point exceptions trapped when the environment
+    asks for it (ROTORCABLE_FPE_TRAP=1: the debug build's test suite)."""
+    return _FpeTrapped(module) if os.environ.get("ROTORCABLE_FPE_TRAP") == "1" else module
 
 
-class _ProbesAbsent:
-    """Stands in for the probes module in a build without it (the product wheel): any probe
-    call raises, naming the build option that adds them."""
-
-    def __getattr__(self, name):
-        raise ProbesNotBuilt(
-            f"{name}: the test and benchmark probes are not in this build of rotorcable; rebuild with "
-            "the meson option probes on (pip install -Csetup-args=-Dprobes=true ..., as .ci/setup does)")
-
-
-_api = _rotorcable.rotorcable_api
-#: The test and benchmark probes (src_fortran/probes.f90), built only with -Dprobes=true
-#: (meson.options); the run API and the analyses never need them.
-HAS_PROBES = hasattr(_rotorcable, "rotorcable_probes")
-_probes = _rotorcable.rotorcable_probes if HAS_PROBES else _ProbesAbsent()
-if os.environ.get("ROTORCABLE_FPE_TRAP") == "1":
-    _api = _FpeTrapped(_api)
-    if HAS_PROBES:
-        _probes = _FpeTrapped(_probes)
+_api = _trapped_if_asked(_rotorcable.rotorcable_api)
 
 JOINT_KINDS = {"zy": 1, "xy": 2, "xyz": 3}
 
@@ -389,114 +376,6 @@ class CoreModel:
                                                                    max(self.nc, 1))
         _raise(self.deck, stat, key, msg)
         return {"q": q1, "v": v1, "vdot": vd, "lambda": lam[:self.nc].copy()}
-
-    # -- probes (tests and benchmarks; only in a build with -Dprobes=true, HAS_PROBES) -----
-    def evaluate(self, q, v, vdot, lam, t: float = 0.0) -> dict:
-        lam_in = np.zeros(max(self.nc, 1))
-        lam_in[:self.nc] = lam
-        (m, mj, k, res, g, gj, gb, gv, vd, la, wr, en, stat, msg) = _probes.rc_probe_evaluate(
-            self.handle, float(t), _reals(q), _reals(v), _reals(vdot), lam_in)
-        _raise(self.deck, stat, "", msg)
-        nc = self.nc
-        return {"M": m, "M_jourdain": mj, "k": k, "residual": res, "g": g[:nc], "G": gj[:nc],
-                "Gdot_v": gb[:nc], "G_v": gv[:nc], "vdot": vd, "lambda": la[:nc], "wrenches": wr,
-                "energy": float(en)}
-
-    def parameter_partial(self, models, weights, h: float, y, yd, t: float = 0.0, loads_only: bool = False,
-                          changed_loads=None):
-        """F_p = sum_i w_i F(models[i]) / h at (t, y, y') (None: this model), as the sensitivity
-        integration takes it; ``loads_only``: from the loads' generalized forces on this model's
-        kinematics (rotorcable_parameter_sensitivity, loads_partial), or, 2, from the rebuilt
-        models' bodies and loads on its motion (bodies_partial), of the load slots where
-        ``changed_loads`` (default: all)."""
-        handles = np.array([0 if m is None else m.handle for m in models], dtype=np.int32)
-        changed = load_mask([changed_loads])
-        fp, stat, msg = _probes.rc_probe_parameter_partial(self.handle, handles, _reals(weights), float(h),
-                                                           int(loads_only), changed[:, 0], float(t), _reals(y),
-                                                           _reals(yd))
-        _raise(self.deck, stat, "", msg)
-        return fp
-
-    def consistent_ggl_state(self, q, v, t: float = 0.0):
-        """GGL unknowns y = (q, v, lambda, 0) and yd = (v, vdot, 0, 0) at the consistent start."""
-        n = 2 * self.nq + 2 * self.nc
-        y, yd, stat, msg = _probes.rc_probe_consistent_start(self.handle, float(t), _reals(q), _reals(v), n)
-        _raise(self.deck, stat, "", msg)
-        return y, yd
-
-    def ggl_residual(self, y, yd, t: float = 0.0):
-        r, stat, msg = _probes.rc_probe_ggl_residual(self.handle, float(t), _reals(y), _reals(yd))
-        _raise(self.deck, stat, "", msg)
-        return r
-
-    def iteration_matrix(self, y, yd, cj: float, b, n_rep: int = 1, t: float = 0.0,
-                         jacobian: str = "analytic") -> dict:
-        """The GGL iteration matrix at (y, y', cj), its physics columns analytic or by finite
-        differences, with the block solver's solutions of J x = b and the timings."""
-        (jac, x, nbf, nbs, ndf, nds, stat, msg) = _probes.rc_probe_iteration_matrix(
-            self.handle, float(t), float(cj), _reals(y), _reals(yd), int(jacobian == "analytic"),
-            np.asfortranarray(b, float), int(n_rep))
-        _raise(self.deck, stat, "", msg)
-        return {"jacobian": jac, "x_block": x, "ns_block_factor": nbf, "ns_block_solve": nbs,
-                "ns_dense_factor": ndf, "ns_dense_solve": nds}
-
-    def chain_solver(self, y, cj: float, b, n_rep: int = 1, t: float = 0.0) -> dict:
-        """The chain solver's approximate iteration matrix at (t, q, cj), its solutions of J x = b
-        and the block solver's solutions of the same matrix, with the chain's timings."""
-        (jac, xc, xb, nf, ns, stat, msg) = _probes.rc_probe_chain_solver(
-            self.handle, float(t), float(cj), _reals(y), np.asfortranarray(b, float), int(n_rep))
-        _raise(self.deck, stat, "", msg)
-        return {"jacobian": jac, "x_chain": xc, "x_block": xb, "ns_factor": nf, "ns_solve": ns}
-
-    def time_kernels(self, y, yd, n_rep: int, t: float = 0.0) -> dict:
-        r, ns_res, ns_jac, ns_jac_fd, ns_mass, stat, msg = _probes.rc_probe_time_kernels(
-            self.handle, float(t), _reals(y), _reals(yd), int(n_rep))
-        _raise(self.deck, stat, "", msg)
-        return {"residual": r, "residual_ns": ns_res, "jacobian_ns": ns_jac, "jacobian_fd_ns": ns_jac_fd,
-                "mass_matrix_ns": ns_mass}
-
-    def articulated_solve(self, q, armature, tau, t: float = 0.0) -> np.ndarray:
-        """(M(q) + diag(armature))^-1 tau by the articulated-body factorisation (the chain
-        solver's kernel)."""
-        x, stat, msg = _probes.rc_probe_articulated_solve(self.handle, float(t), _reals(q), _reals(armature),
-                                                          _reals(tau))
-        _raise(self.deck, stat, "", msg)
-        return x
-
-    def residual_tangent(self, y, yd, dy, dyd, t: float = 0.0) -> np.ndarray:
-        """First-order change of the GGL residual at (y, y') for the change (dy, dyd): the
-        analytic Jacobian's tangent sweep (with dyd = cj dy, the iteration matrix times dy)."""
-        dr, stat, msg = _probes.rc_probe_residual_tangent(self.handle, float(t), _reals(y), _reals(yd),
-                                                          _reals(dy), _reals(dyd))
-        _raise(self.deck, stat, "", msg)
-        return dr
-
-    def residual_tangent_columns(self, y, yd, dy, dyd, t: float = 0.0) -> np.ndarray:
-        """residual_tangent of every column of dy, dyd (n, m) at once: the path of the
-        sensitivity residual (the chain's tangents over blocks of columns)."""
-        dr, stat, msg = _probes.rc_probe_residual_tangent_columns(self.handle, float(t), _reals(y), _reals(yd),
-                                                                  np.asfortranarray(dy, float),
-                                                                  np.asfortranarray(dyd, float))
-        _raise(self.deck, stat, "", msg)
-        return dr
-
-    def integrate_timed(self, method: int, settings: dict, t0: float, t_end: float, q0, v0, n_samples: int,
-                        baumgarte_omega: float = 50.0) -> dict:
-        """One timed integration (1 IDA, 2 GSL rk8pd, 3 GSL msbdf): CM samples (n_samples, n, 3)
-        at equally spaced times t0 ... t_end, the end state, statistics, CPU and wall time of
-        the integration alone."""
-        (cm, q_end, v_end, st, cpu, wall, stat, msg) = _probes.rc_probe_integrate(
-            self.handle, int(method), *_parameter_arrays(settings), float(baumgarte_omega), float(t0), float(t_end),
-            _reals(q0), _reals(v0), int(n_samples), self.n_bodies)
-        _raise(self.deck, stat, "", msg)
-        return {"cm_samples": cm.transpose(2, 1, 0).copy(), "q_end": q_end, "v_end": v_end,
-                "stats": dict(zip(("steps", "residual_evals", "jacobian_evals", "error_test_failures",
-                                   "convergence_failures"), (int(x) for x in st))),
-                "cpu_s": float(cpu), "wall_s": float(wall)}
-
-    def rank_margin(self, q, t: float = 0.0) -> float:
-        """sigma_min / sigma_max of the constraint Jacobian (1 for a free end)."""
-        return float(_probes.rc_probe_rank_margin(self.handle, float(t), _reals(q)))
 
 
 class CoreSession:

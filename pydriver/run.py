@@ -108,23 +108,3 @@ def shape(path, q, t: float = 0.0) -> dict:
     m = _model(path)
     s = m.core.shape(np.asarray(q, float), t)
     return {"angles_deg": np.degrees(s["angles"]), "cm": s["cm"], "joints": s["joints"]}
-
-
-def evaluate_model(path, q, v=None, vdot=None, lam=None, t: float = 0.0) -> dict:
-    """Every model quantity of the deck's chain at one state (for tests and analysis).
-
-    Returns a dict with ``M`` (composite-rigid-body), ``M_jourdain`` (thesis eq. 4.87), ``k``,
-    ``residual`` (M vdot - k - G^T lambda by inverse dynamics), ``g``, ``G``, ``Gdot_v`` (the
-    acceleration bias, rheonomic terms included), ``G_v`` (G v + g_t), ``vdot``/``lambda`` of
-    eq. 3.55, ``wrenches`` (F_A, M_A, F_B, M_B) and ``energy``.
-
-    A test probe: it needs a build with the meson option ``probes`` on (.ci/setup builds so) and
-    raises :class:`pydriver.core.ProbesNotBuilt` in the product wheel.
-    """
-    m = _model(path)
-    nq = m.nq
-    q = np.asarray(q, float)
-    v = np.zeros(nq) if v is None else np.asarray(v, float)
-    vdot = np.zeros(nq) if vdot is None else np.asarray(vdot, float)
-    lam = np.zeros(m.nc) if lam is None else np.asarray(lam, float)
-    return m.core.evaluate(q, v, vdot, lam, t)

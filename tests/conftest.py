@@ -57,7 +57,7 @@ def deck_copy(tmp_path):
 def pytest_report_header(config):
     """Whether the core under test has the probes most tests use (meson option ``probes``;
     .ci/setup builds with it, the product wheel without)."""
-    from pydriver.core import HAS_PROBES
+    from pydriver.core_probes import HAS_PROBES
     return f"rotorcable probes: {'built' if HAS_PROBES else 'NOT built (bash .ci/setup builds them)'}"
 
 

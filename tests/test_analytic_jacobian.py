@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import pydriver
+from pydriver import core_probes as probes
 from conftest import INPUTS
 
 DECKS = ["three_body", "six_link_dynamic", "uh60_part1", "uh60_part2_decay", "cantilever_check",
@@ -26,7 +27,7 @@ def _random_state(m, seed):
     from pydriver.analyses.dynamics import start_state
     nq, nc = m.nq, m.nc
     q0, v0 = start_state(m)
-    y, yd = m.core.consistent_ggl_state(q0, v0)
+    y, yd = probes.consistent_ggl_state(m.core, q0, v0)
     rng = np.random.default_rng(seed)
     y = y + np.concatenate([0.05 * rng.standard_normal(nq), rng.standard_normal(nq), rng.standard_normal(2 * nc)])
     yd = yd + rng.standard_normal(len(yd))
@@ -37,7 +38,7 @@ def _physics_columns(m, t, y, yd, jacobian):
     """dF/dq, dF/dv: the iteration matrix is P + cj E with E the exact y' blocks, so P = 2 J(1) -
     J(2) (cj = 0 itself cannot be asked for: the probe also factorises, dividing by cj)."""
     zero = np.zeros((len(y), 1))
-    j1, j2 = (m.core.iteration_matrix(y, yd, cj, zero, t=t, jacobian=jacobian)["jacobian"][:, :2 * m.nq]
+    j1, j2 = (probes.iteration_matrix(m.core, y, yd, cj, zero, t=t, jacobian=jacobian)["jacobian"][:, :2 * m.nq]
               for cj in (1.0, 2.0))
     return 2.0 * j1 - j2
 
@@ -56,7 +57,7 @@ def test_analytic_columns_match_central_differences(stem):
         yp, ym = y.copy(), y.copy()
         yp[k] += h
         ym[k] -= h
-        jc[:, k] = (m.core.ggl_residual(yp, yd, t) - m.core.ggl_residual(ym, yd, t)) / (2.0 * h)
+        jc[:, k] = (probes.ggl_residual(m.core, yp, yd, t) - probes.ggl_residual(m.core, ym, yd, t)) / (2.0 * h)
     assert np.abs(ja - jc).max() <= 1.0e-8 * np.abs(jc).max()
 
 
@@ -81,8 +82,8 @@ def test_tangent_sweep_is_the_iteration_matrix_times_a_vector(stem):
     t, y, yd = _random_state(m, 5)
     dy = np.random.default_rng(6).standard_normal(len(y))
     for cj in (10.0, 1.0e4):
-        full = m.core.iteration_matrix(y, yd, cj, np.zeros((len(y), 1)), t=t)["jacobian"]
-        jv = m.core.residual_tangent(y, yd, dy, cj * dy, t=t)
+        full = probes.iteration_matrix(m.core, y, yd, cj, np.zeros((len(y), 1)), t=t)["jacobian"]
+        jv = probes.residual_tangent(m.core, y, yd, dy, cj * dy, t=t)
         assert np.abs(jv - full @ dy).max() <= 1.0e-12 * np.abs(full).max() * np.abs(dy).max()
 
 
@@ -112,8 +113,9 @@ def test_tangent_columns_are_the_single_column_sweeps_bit_for_bit(stem):
     for width in (1, 2, 3, 4, 5, 6, 9):
         dy = rng.standard_normal((len(y), width))
         dyd = rng.standard_normal((len(y), width))
-        together = m.core.residual_tangent_columns(y, yd, dy, dyd, t=t)
-        again = m.core.residual_tangent_columns(y, yd, dy, dyd, t=t)
-        single = np.column_stack([m.core.residual_tangent(y, yd, dy[:, k], dyd[:, k], t=t) for k in range(width)])
+        together = probes.residual_tangent_columns(m.core, y, yd, dy, dyd, t=t)
+        again = probes.residual_tangent_columns(m.core, y, yd, dy, dyd, t=t)
+        single = np.column_stack([probes.residual_tangent(m.core, y, yd, dy[:, k], dyd[:, k], t=t)
+                                  for k in range(width)])
         assert np.array_equal(together, single)
         assert np.array_equal(again, single)

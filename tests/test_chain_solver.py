@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import pydriver
+from pydriver import core_probes as probes
 from conftest import INPUTS
 
 DECKS = ["three_body", "six_link_dynamic", "uh60_part2_decay"]
@@ -19,9 +20,9 @@ EPS = np.finfo(float).eps
 
 def _chain(stem, cj, n_rhs=3):
     m = pydriver.Model.from_deck(INPUTS / f"{stem}.nml")
-    y, _ = m.core.consistent_ggl_state(m.q0, m.v0)
+    y, _ = probes.consistent_ggl_state(m.core, m.q0, m.v0)
     b = np.random.default_rng(11).standard_normal((len(y), n_rhs))
-    return m.core.chain_solver(y, cj, b), b
+    return probes.chain_solver(m.core, y, cj, b), b
 
 
 @pytest.mark.parametrize("stem", DECKS)
@@ -50,13 +51,13 @@ def test_chain_matrix_is_the_iteration_matrix_without_the_dropped_terms():
     does not scale with cj: it is the same at cj = 1e3 and 1e6 to round-off of cj M
     (eps cj |M| relative, bound 1e-9 of |J| at cj = 1e6)."""
     m = pydriver.Model.from_deck(INPUTS / "uh60_part2_decay.nml")
-    y, yd = m.core.consistent_ggl_state(m.q0, m.v0)
+    y, yd = probes.consistent_ggl_state(m.core, m.q0, m.v0)
     nq = m.nq
     zeros = np.zeros((len(y), 1))
     diffs = []
     for cj in (1.0e3, 1.0e6):
-        full = m.core.iteration_matrix(y, yd, cj, zeros)["jacobian"]
-        approx = m.core.chain_solver(y, cj, zeros)["jacobian"]
+        full = probes.iteration_matrix(m.core, y, yd, cj, zeros)["jacobian"]
+        approx = probes.chain_solver(m.core, y, cj, zeros)["jacobian"]
         d = full - approx
         keep = np.ones_like(d, dtype=bool)
         keep[nq:2 * nq, :2 * nq] = False
@@ -114,12 +115,12 @@ def test_articulated_solve_keeps_its_digits_on_long_chains(tmp_path, n, joint):
     rotorcable_articulated_body has the forward error of a stable solver, ~cond(M) eps (measured
     2.5e-9 at n = 200, cond 2e8).  Bound 100 cond eps (at least 1e-12)."""
     m, q0, v0 = _long_chain(tmp_path, n, joint)
-    mass = m.core.evaluate(q0, v0, 0.0 * v0, np.zeros(m.nc))["M"]
+    mass = probes.evaluate(m.core, q0, v0, 0.0 * v0, np.zeros(m.nc))["M"]
     tau = np.random.default_rng(3).standard_normal(m.nq)
     for armature in (1.0e-3, 0.0):
         a = mass + armature * np.eye(m.nq)
         exact = np.linalg.solve(a, tau)
-        x = m.core.articulated_solve(q0, np.full(m.nq, armature), tau)
+        x = probes.articulated_solve(m.core, q0, np.full(m.nq, armature), tau)
         bound = max(100.0 * np.linalg.cond(a) * EPS, 1e-12)
         assert np.linalg.norm(x - exact) <= bound * np.linalg.norm(exact), (armature, np.linalg.norm(x - exact))
 
@@ -136,7 +137,7 @@ def test_chain_solve_keeps_its_digits_in_every_block(tmp_path, n, joint):
     with constraint-row ones the multipliers reach 1e13 at cj = 1e12 and both solvers' forward
     errors are cond(J) eps, so only the backward error is compared there)."""
     m, q0, v0 = _long_chain(tmp_path, n, joint)
-    y, _ = m.core.consistent_ggl_state(q0, v0)
+    y, _ = probes.consistent_ggl_state(m.core, q0, v0)
     nq, nc = m.nq, m.nc
     blocks = [slice(0, nq), slice(nq, 2 * nq), slice(2 * nq, 2 * nq + nc), slice(2 * nq + nc, 2 * nq + 2 * nc)]
     rng = np.random.default_rng(4)
@@ -144,7 +145,7 @@ def test_chain_solve_keeps_its_digits_in_every_block(tmp_path, n, joint):
         b = np.zeros(len(y))
         b[rows] = rng.standard_normal(rows.stop - rows.start)
         for cj in (1.0e4, 1.0e8, 1.0e12):
-            out = m.core.chain_solver(y, cj, b[:, None])
+            out = probes.chain_solver(m.core, y, cj, b[:, None])
             jac, x = out["jacobian"], out["x_chain"][:, 0]
             r = jac @ x - b
             for blk in blocks:

@@ -45,6 +45,7 @@ import numpy as np
 import pytest
 
 import pydriver
+from pydriver import core_probes as probes
 import reference_maximal as ref
 from conftest import INPUTS
 from pydriver.deckfile import deck_from_text, read_deck
@@ -185,7 +186,7 @@ def _blocks(d, ell):
 def errors(m, model, q, v, vdot, lam, t) -> dict:
     """Core against reference at one state, every difference relative to its scale."""
     ell = cable_length(model)
-    e = pydriver.evaluate_model(m, q, v, vdot, lam, t)
+    e = probes.evaluate_model(m, q, v, vdot, lam, t)
     out = {}
     g, G = ref.constraint(model, q, t), ref.constraint_jacobian(model, q, t)
     out["g"] = _blocks(e["g"] - g, ell)
@@ -249,7 +250,7 @@ def test_mass_matrix_by_virtual_power(case, built):
     zero = np.zeros(m.nq)
     r0 = ref.residual(model, q, zero, zero, np.zeros(6), t)
     M = np.column_stack([ref.residual(model, q, zero, ek, np.zeros(6), t) - r0 for ek in np.eye(m.nq)])
-    Mc = pydriver.evaluate_model(m, q, zero, zero, np.zeros(6), t)["M"]
+    Mc = probes.evaluate_model(m, q, zero, zero, np.zeros(6), t)["M"]
     err = np.max(np.abs(Mc - M)) / np.max(np.abs(M))
     WORST["M"] = max(WORST.get("M", 0.0), err)
     assert err < TOL
@@ -260,7 +261,7 @@ def test_mass_matrix_by_maximal_unit_responses(built):
     its own round-off is cond(M) eps, so the bound is 10 cond(M) eps."""
     m, model = built("ff_n6")
     q = m.q0 + np.random.default_rng(6).normal(0.0, 0.2, m.nq)
-    Mc = pydriver.evaluate_model(m, q, np.zeros(m.nq), np.zeros(m.nq), np.zeros(6), 0.137)["M"]
+    Mc = probes.evaluate_model(m, q, np.zeros(m.nq), np.zeros(m.nq), np.zeros(6), 0.137)["M"]
     M = ref.mass_matrix(model, q, 0.137)
     err = np.max(np.abs(Mc - M)) / np.max(np.abs(M))
     WORST["M_maximal"] = max(WORST.get("M_maximal", 0.0), err)
@@ -274,7 +275,7 @@ def test_cases_exercise_what_they_claim(built):
     om = [ref.rotor_state(model.rotor, t) for t in CASES["ff_runup_moving_clamp"][3]]
     assert om[0][2] == 0.0 and om[1][2] > 10.0 and om[2][2] > 10.0 and om[3][2] == 0.0
     q = m.q0
-    e = pydriver.evaluate_model(m, q, np.zeros(m.nq), None, None, 0.2)
+    e = probes.evaluate_model(m, q, np.zeros(m.nq), None, None, 0.2)
     assert np.max(np.abs(e["G_v"])) > 0.1          # v = 0: G v + g_t = g_t, the clamp's velocity
     m, model = built("p1_runup")
     assert ref.rotor_state(model.rotor, 0.2)[1] == 0.0
@@ -291,9 +292,9 @@ def test_rheonomic_rows_against_finite_differences(built):
     q, v, t = m.q0 + rng.normal(0.0, 0.2, m.nq), rng.normal(0.0, 2.0, m.nq), 0.2
 
     def g(s):
-        return pydriver.evaluate_model(m, q + s * v, v, None, None, t + s)["g"]
+        return probes.evaluate_model(m, q + s * v, v, None, None, t + s)["g"]
 
-    e = pydriver.evaluate_model(m, q, v, None, None, t)
+    e = probes.evaluate_model(m, q, v, None, None, t)
     h = 1e-5
     assert np.max(np.abs(e["G_v"] - (g(h) - g(-h)) / (2 * h))) < 1e-8 * np.max(np.abs(e["G_v"]))
     h = 1e-4
@@ -311,8 +312,8 @@ def test_hub_and_inertial_frames_agree_at_one_state(built):
     t = 0.2
     q0 = closed_start(modelh, mh.q0, t) + rng.normal(0.0, 0.05, mh.nq)
     q, v = project(modelh, q0, rng.normal(0.0, 2.0, mh.nq), t)
-    eh = pydriver.evaluate_model(mh, q, v, None, None, t)
-    ei = pydriver.evaluate_model(mi, q, v, None, None, t)
+    eh = probes.evaluate_model(mh, q, v, None, None, t)
+    ei = probes.evaluate_model(mi, q, v, None, None, t)
     psi = ref.rotor_state(modelh.rotor, t)[0]
     Rz = ref.Rz(psi)
     assert np.max(np.abs(ei["g"][:3] - Rz @ eh["g"][:3])) < 1e-13

@@ -39,6 +39,7 @@ import pytest
 from conftest import INPUTS
 
 import pydriver
+from pydriver import core_probes as probes
 from pydriver.analyses.flight import flight_analysis
 from pydriver.analyses.flight_sensitivities import (
     flight_outputs,
@@ -227,14 +228,14 @@ def test_loads_only_partials_match_whole_residual_partials():
         "loads.gravity(3)": gravity}
     t = 0.07                                            # a third of a revolution at 258 rpm
     rates = np.random.default_rng(24).normal(0.0, 1.0, model.nq)
-    y, yd = model.core.consistent_ggl_state(model.q0, model.v0 + rates, t)
+    y, yd = probes.consistent_ggl_state(model.core, model.q0, model.v0 + rates, t)
     assert np.max(np.abs(y[model.nq:2 * model.nq])) > 0.1
     for pl in plans[:-1]:
         models = [None if m is None else m.core for _, _, m in pl.points]
         weights = [w for _, w, _ in pl.points]
-        whole = model.core.parameter_partial(models, weights, pl.h, y, yd, t)
-        fast = model.core.parameter_partial(models, weights, pl.h, y, yd, t, loads_only=True)
-        masked = model.core.parameter_partial(models, weights, pl.h, y, yd, t, loads_only=True,
+        whole = probes.parameter_partial(model.core, models, weights, pl.h, y, yd, t)
+        fast = probes.parameter_partial(model.core, models, weights, pl.h, y, yd, t, loads_only=True)
+        masked = probes.parameter_partial(model.core, models, weights, pl.h, y, yd, t, loads_only=True,
                                               changed_loads=pl.changed_loads)
         err = np.max(np.abs(fast - whole)) / np.max(np.abs(whole))
         err_masked = np.max(np.abs(masked - whole)) / np.max(np.abs(whole))
@@ -264,12 +265,12 @@ def test_bodies_and_loads_partials_match_whole_residual_partials():
         "cable.mass_per_length": (False, True), "chain.diameter": (False, True), "chain.total_length": (False, False)}
     t = 0.07
     rates = np.random.default_rng(24).normal(0.0, 1.0, model.nq)
-    y, yd = model.core.consistent_ggl_state(model.q0, model.v0 + rates, t)
+    y, yd = probes.consistent_ggl_state(model.core, model.q0, model.v0 + rates, t)
     for pl in plans[:2]:
         models = [None if m is None else m.core for _, _, m in pl.points]
         weights = [w for _, w, _ in pl.points]
-        whole = model.core.parameter_partial(models, weights, pl.h, y, yd, t)
-        fast = model.core.parameter_partial(models, weights, pl.h, y, yd, t, loads_only=2,
+        whole = probes.parameter_partial(model.core, models, weights, pl.h, y, yd, t)
+        fast = probes.parameter_partial(model.core, models, weights, pl.h, y, yd, t, loads_only=2,
                                             changed_loads=pl.changed_loads)
         err = np.max(np.abs(fast - whole)) / np.max(np.abs(whole))
         print(pl.parameter.name, f"{err:.1e}")

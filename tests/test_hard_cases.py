@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import pydriver
+from pydriver import core_probes as probes
 from conftest import INPUTS
 from pydriver.study import override_deck
 
@@ -166,7 +167,7 @@ def test_soft_cable_at_500_rpm_equilibrium(tmp_path):
     assert finite(res) and res.summary["max_constraint_violation_m"] < 1e-9
     # The equilibrium satisfies the equations of motion at rest: M*0 - k - G^T lambda = 0,
     # to Newton's force tolerance relative to the largest generalized force.
-    ev = pydriver.evaluate_model(path, res.extra["q"], lam=res.extra["lambda"])
+    ev = probes.evaluate_model(path, res.extra["q"], lam=res.extra["lambda"])
     assert np.max(np.abs(ev["residual"])) < 1e-8 * np.max(np.abs(ev["k"]))
     # Large deflection: the cable is flung out far from its 260 rpm shape (beta changes by
     # tens of degrees somewhere along it).

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import pydriver
+from pydriver import core_probes as probes
 from conftest import INPUTS
 from pydriver.analyses.statics import equilibrium
 
@@ -26,7 +27,7 @@ def _central_difference_matrices(m, q, lam, h_q, h_v):
     zero = np.zeros(nq)
 
     def residual(qq, vv):
-        return m.core.evaluate(qq, vv, zero, lam)["residual"]
+        return probes.evaluate(m.core, qq, vv, zero, lam)["residual"]
 
     k_fd, d_fd = np.empty((nq, nq)), np.empty((nq, nq))
     for k in range(nq):
@@ -60,7 +61,7 @@ def test_reduced_stiffness_and_damping_match_central_differences(stem):
     assert np.abs(mats["K_r"] - k_r).max() <= 1.0e-7 * np.abs(k_r).max()
     assert np.abs(mats["D_r"] - d_r).max() <= 1.0e-7 * np.abs(d_r).max()
     # The basis is orthonormal and spans the null space of G at the equilibrium.
-    g = m.core.evaluate(q, np.zeros(m.nq), np.zeros(m.nq), lam)["G"]
+    g = probes.evaluate(m.core, q, np.zeros(m.nq), np.zeros(m.nq), lam)["G"]
     assert np.allclose(basis.T @ basis, np.eye(basis.shape[1]), atol=1.0e-12)
     if m.nc:
         assert np.abs(g @ basis).max() <= 1.0e-12 * max(1.0, np.abs(g).max())

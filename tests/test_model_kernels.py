@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import pydriver
+from pydriver import core_probes as probes
 from conftest import INPUTS, edit_deck
 import reference_maximal as ref
 
@@ -34,11 +35,11 @@ def reference_from_deck(path, first_clamped, n, length, radius, mass, angles_deg
 def project(path, q, v):
     """Gauss-Newton projection onto g = 0 and G v = 0 using the Fortran g and G."""
     for _ in range(30):
-        e = pydriver.evaluate_model(path, q)
+        e = probes.evaluate_model(path, q)
         if np.max(np.abs(e["g"])) < 1e-14:
             break
         q = q - np.linalg.lstsq(e["G"], e["g"], rcond=None)[0]
-    e = pydriver.evaluate_model(path, q)
+    e = probes.evaluate_model(path, q)
     v = v - np.linalg.lstsq(e["G"], e["G"] @ v, rcond=None)[0]
     return q, v
 
@@ -79,7 +80,7 @@ def test_mass_matrix_three_ways(open_chain, closed_chain):
         nq = pydriver.deck_info(path)["n_coords"]
         for _ in range(5):
             q = RNG.uniform(-np.pi, np.pi, nq)
-            e = pydriver.evaluate_model(path, q)
+            e = probes.evaluate_model(path, q)
             # CRBA against the thesis's Jourdain form (eq. 4.87): same sums, other order.
             assert rel_err(e["M"], e["M_jourdain"]) < 1e-12
             assert rel_err(e["M"], e["M"].T) < 1e-14
@@ -93,7 +94,7 @@ def test_generalized_forces_against_reference(open_chain, closed_chain):
         for _ in range(5):
             q = RNG.uniform(-np.pi, np.pi, nq)
             v = RNG.normal(0, 3, nq)
-            e = pydriver.evaluate_model(path, q, v)
+            e = probes.evaluate_model(path, q, v)
             assert rel_err(e["k"], ref.generalized_forces(model, q, v)) < 1e-10
 
 
@@ -104,7 +105,7 @@ def test_inverse_dynamics_equals_assembled_equation(closed_chain):
     for _ in range(5):
         q, v, vdot, lam = (RNG.uniform(-3, 3, nq), RNG.normal(0, 2, nq), RNG.normal(0, 20, nq),
                            RNG.normal(0, 50, 6))
-        e = pydriver.evaluate_model(path, q, v, vdot, lam)
+        e = probes.evaluate_model(path, q, v, vdot, lam)
         # M_B = T^T lambda_rot: G^T lambda is assembled from the Fortran G directly.
         assembled = e["M"] @ vdot - e["k"] - e["G"].T @ lam
         assert rel_err(e["residual"], assembled) < 1e-10
@@ -115,7 +116,7 @@ def test_multipliers_and_reactions_against_reference(closed_chain, open_chain):
     q0 = np.radians([0, 45, 90, 90, 0, 90, 90, -45])
     for _ in range(4):
         q, v = project(path, q0 + RNG.normal(0, 0.05, 8), RNG.normal(0, 2, 8))
-        e = pydriver.evaluate_model(path, q, v)
+        e = probes.evaluate_model(path, q, v)
         r = ref.forward_dynamics(model, q, v)
         w = e["wrenches"]
         scale = 75.0
@@ -126,7 +127,7 @@ def test_multipliers_and_reactions_against_reference(closed_chain, open_chain):
     path, model = open_chain
     q = RNG.uniform(-2, 2, 6)
     v = RNG.normal(0, 2, 6)
-    e = pydriver.evaluate_model(path, q, v)
+    e = probes.evaluate_model(path, q, v)
     r = ref.forward_dynamics(model, q, v)
     assert rel_err(e["vdot"], r["qdd"]) < 1e-10
     assert np.max(np.abs(e["wrenches"][0:3] - r["F_A"])) < 1e-10 * 1.5
@@ -137,17 +138,17 @@ def test_constraint_jacobian_finite_difference(closed_chain):
     for _ in range(3):
         q = RNG.uniform(-np.pi, np.pi, 8)
         v = RNG.normal(0, 2, 8)
-        e = pydriver.evaluate_model(path, q, v)
+        e = probes.evaluate_model(path, q, v)
         h = 1e-6
-        fd = np.column_stack([(pydriver.evaluate_model(path, q + h * ei)["g"]
-                               - pydriver.evaluate_model(path, q - h * ei)["g"]) / (2 * h)
+        fd = np.column_stack([(probes.evaluate_model(path, q + h * ei)["g"]
+                               - probes.evaluate_model(path, q - h * ei)["g"]) / (2 * h)
                               for ei in np.eye(8)])
         # Central differences: truncation ~h^2 |g'''| ~ 1e-12, round-off ~eps/h ~ 1e-10.
         assert np.max(np.abs(e["G"] - fd)) < 1e-8
         assert np.max(np.abs(e["G_v"] - e["G"] @ v)) < 1e-12
         # Gdot v = d/dt (G(q) v) along qdot = v.
-        gp = pydriver.evaluate_model(path, q + h * v)["G"]
-        gm = pydriver.evaluate_model(path, q - h * v)["G"]
+        gp = probes.evaluate_model(path, q + h * v)["G"]
+        gm = probes.evaluate_model(path, q - h * v)["G"]
         fd_bias = (gp - gm) @ v / (2 * h)
         assert np.max(np.abs(e["Gdot_v"] - fd_bias)) < 1e-7 * max(1.0, np.max(np.abs(fd_bias)))
 
@@ -156,7 +157,7 @@ def test_energy_matches_reference(open_chain):
     path, model = open_chain
     q = RNG.uniform(-2, 2, 6)
     v = RNG.normal(0, 2, 6)
-    e = pydriver.evaluate_model(path, q, v)
+    e = probes.evaluate_model(path, q, v)
     # Jacobi integral in the hub frame: relative kinetic energy + springs + gravity + the
     # centrifugal potential of the point masses and of the bodies' rotational inertia.
     parts = ref.energy_parts(model, q, v)

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import pydriver
+from pydriver import core_probes as probes
 from conftest import INPUTS
 from pydriver.study import override_deck
 
@@ -42,9 +43,9 @@ def test_same_integration_twice_takes_the_same_steps():
     status 0 (471, 471, then 0 steps on a 10-body deck).  Same model, same start: the same
     work every time."""
     m = pydriver.Model.from_deck(INPUTS / "uh60_part2_decay.nml")
-    y, _ = m.core.consistent_ggl_state(m.q0, np.zeros_like(m.q0))
+    y, _ = probes.consistent_ggl_state(m.core, m.q0, np.zeros_like(m.q0))
     q0, v0 = y[:m.nq], y[m.nq:2 * m.nq]
-    steps = [m.core.integrate_timed(1, m.solver_settings(), 0.0, 0.05, q0, v0, 2)["stats"]["steps"]
+    steps = [probes.integrate_timed(m.core, 1, m.solver_settings(), 0.0, 0.05, q0, v0, 2)["stats"]["steps"]
              for _ in range(4)]
     assert steps[0] > 10 and len(set(steps)) == 1, steps
 

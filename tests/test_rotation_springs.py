@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import pydriver
+from pydriver import core_probes as probes
 from conftest import INPUTS
 from pydriver.deckfile import deck_from_text
 
@@ -36,7 +37,7 @@ def test_one_joint_closed_forms():
     for axis, k in ((0, EI / ell), (2, GJ / ell)):
         q = np.zeros(m.nq)
         q[3 + axis] = 0.3
-        e = pydriver.evaluate_model(m, q)
+        e = probes.evaluate_model(m, q)
         want = np.zeros(m.nq)
         want[3 + axis] = -k * 0.3
         assert np.max(np.abs(e["k"] - want)) < 1e-13 * k
@@ -50,10 +51,10 @@ def test_generalized_force_is_minus_the_potential_gradient():
     m = free_cable(n=5)
     for _ in range(4):
         q = RNG.uniform(-0.6, 0.6, m.nq)
-        k = pydriver.evaluate_model(m, q)["k"]
+        k = probes.evaluate_model(m, q)["k"]
         h = 1e-6
-        grad = np.array([(pydriver.evaluate_model(m, q + h * e)["energy"]
-                          - pydriver.evaluate_model(m, q - h * e)["energy"]) / (2 * h) for e in np.eye(m.nq)])
+        grad = np.array([(probes.evaluate_model(m, q + h * e)["energy"]
+                          - probes.evaluate_model(m, q - h * e)["energy"]) / (2 * h) for e in np.eye(m.nq)])
         assert np.max(np.abs(k + grad)) < 1e-7 * np.max(np.abs(k))
 
 
@@ -69,11 +70,11 @@ def test_dampers_dissipate_as_the_relative_angular_velocity_says():
         v = RNG.normal(0.0, 2.0, m.nq)
         # k holds the velocity terms of the inertia too: the same state without dampers
         # leaves the dampers' generalized force alone.
-        damper = pydriver.evaluate_model(m, q, v)["k"] - pydriver.evaluate_model(free_cable(n=4), q, v)["k"]
+        damper = probes.evaluate_model(m, q, v)["k"] - probes.evaluate_model(free_cable(n=4), q, v)["k"]
         assert v @ damper <= 0.0
     v = RNG.normal(0.0, 2.0, m.nq)
     q0 = np.zeros(m.nq)
-    damper = pydriver.evaluate_model(m, q0, v)["k"] - pydriver.evaluate_model(free_cable(n=4), q0, v)["k"]
+    damper = probes.evaluate_model(m, q0, v)["k"] - probes.evaluate_model(free_cable(n=4), q0, v)["k"]
     assert np.max(np.abs(damper + d * v)) < 1e-12 * np.max(np.abs(d * v))
 
 

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import pydriver
+from pydriver import core_probes as probes
 from conftest import INPUTS
 from pydriver import fatigue
 from pydriver.analyses.clamp_reach import clamp_b_pose, reach_at, reach_error
@@ -174,7 +175,7 @@ def test_the_reach_test_agrees_with_the_projected_chain():
     model = flight_variant(OUT_OF_REACH)
     from pydriver.analyses.statics import equilibrium
     q0, _, _ = equilibrium(model, 0.0)
-    y, _ = model.core.consistent_ggl_state(q0, np.zeros(model.nq), 0.02)
+    y, _ = probes.consistent_ggl_state(model.core, q0, np.zeros(model.nq), 0.02)
     projected = model.core.shape(y[:model.nq], 0.02)
     p_b, r_b, _ = clamp_b_pose(model, q0, 0.02)
     assert np.max(np.abs(projected["joints"][-1] - p_b)) < 1e-12

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import pydriver
+from pydriver import core_probes as probes
 from conftest import INPUTS
 from pydriver.study import override_deck
 
@@ -51,13 +52,13 @@ def test_axes_and_bias_against_finite_differences(closed_xyz):
     for _ in range(3):
         q = RNG.uniform(-np.pi, np.pi, nq)
         v = RNG.normal(0, 2, nq)
-        e = pydriver.evaluate_model(closed_xyz, q, v)
-        fd = np.column_stack([(pydriver.evaluate_model(closed_xyz, q + h * ei)["g"]
-                               - pydriver.evaluate_model(closed_xyz, q - h * ei)["g"]) / (2 * h)
+        e = probes.evaluate_model(closed_xyz, q, v)
+        fd = np.column_stack([(probes.evaluate_model(closed_xyz, q + h * ei)["g"]
+                               - probes.evaluate_model(closed_xyz, q - h * ei)["g"]) / (2 * h)
                               for ei in np.eye(nq)])
         assert np.max(np.abs(e["G"] - fd)) < 1e-8
-        gp = pydriver.evaluate_model(closed_xyz, q + h * v)["G"]
-        gm = pydriver.evaluate_model(closed_xyz, q - h * v)["G"]
+        gp = probes.evaluate_model(closed_xyz, q + h * v)["G"]
+        gm = probes.evaluate_model(closed_xyz, q - h * v)["G"]
         fd_bias = (gp - gm) @ v / (2 * h)
         assert np.max(np.abs(e["Gdot_v"] - fd_bias)) < 1e-7 * max(1.0, np.max(np.abs(fd_bias)))
 
@@ -69,7 +70,7 @@ def test_mass_matrix_and_inverse_dynamics(closed_xyz):
     for _ in range(4):
         q, v, vdot, lam = (RNG.uniform(-3, 3, nq), RNG.normal(0, 2, nq), RNG.normal(0, 20, nq),
                            RNG.normal(0, 50, 6))
-        e = pydriver.evaluate_model(closed_xyz, q, v, vdot, lam)
+        e = probes.evaluate_model(closed_xyz, q, v, vdot, lam)
         assert rel_err(e["M"], e["M_jourdain"]) < 1e-12
         assert rel_err(e["M"], e["M"].T) < 1e-14
         assert np.linalg.eigvalsh(e["M"]).min() > 0.0

@@ -3,7 +3,7 @@
 For each deck and a few random (q, v, t) - random angles near and far from the start, random
 rates, t inside and outside the pulse window - compare M, k, G, Gdot v, g, the accelerations
 and multipliers of eq. 3.55 (no Baumgarte terms) and the support wrenches with
-``pydriver.evaluate_model``.  Prints the largest difference of each quantity, absolute and
+``pydriver.core_probes.evaluate_model``.  Prints the largest difference of each quantity, absolute and
 relative to the quantity's largest entry over all states (g is ~0 at the consistent start, so a
 per-state relative measure would be meaningless there), and exits non-zero if any relative difference
 exceeds 1e-10.
@@ -27,6 +27,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import pydriver  # noqa: E402
+from pydriver import core_probes as probes  # noqa: E402
 from scipy_route import ChainModel  # noqa: E402
 
 DECKS = ("inputs/six_link_dynamic.nml", "inputs/uh60_part2_decay.nml", "inputs/three_body.nml")
@@ -50,7 +51,7 @@ def check(deck, n_states=6, seed=1):
         if sc.pulse_body > 0 and i < 3:
             t = rng.uniform(*sc.pulse_window)         # inside the pulse window
         on = sc.pulse_body > 0 and sc.pulse_window[0] <= t < sc.pulse_window[1]
-        ref = pydriver.evaluate_model(deck, q, v, t=t)
+        ref = probes.evaluate_model(deck, q, v, t=t)
         tm = model.terms(q, v, on)
         qdd, lam = model.accelerations(tm, v, baumgarte=False)
         ours = {"M": tm["M"], "k": tm["k"], "vdot": qdd, "lambda": lam,
