@@ -33,11 +33,14 @@ def test_body_weight_matches_eq_4_110():
 
 
 def test_static_reactions_match_thesis(static_result):
-    # Thesis prints 2 decimals: tolerance 0.01 N / 0.01 Nm as the issue states.
+    # The thesis prints F_B = (0, 0, 75.13) N and M_A = (0, -12.02, 0) Nm: 4 significant digits,
+    # so its values are known to half a unit of the last digit, 0.005 N and 0.005 Nm.  The model
+    # adds nothing to that: it meets eq. 4.112 / 4.115 to 1e-6 relative (next test), and the
+    # analytic values (75.1310 N, -12.0210 Nm) round to the printed ones.
     rb = static_result.summary["reactions"]["B"]
     ra = static_result.summary["reactions"]["A"]
-    assert rb["F"] == pytest.approx([0.0, 0.0, REF["static"]["F_B_z_N"]], abs=0.01)
-    assert ra["M"] == pytest.approx([0.0, REF["static"]["M_A_y_Nm"], 0.0], abs=0.01)
+    assert rb["F"] == pytest.approx([0.0, 0.0, REF["static"]["F_B_z_N"]], abs=0.005)
+    assert ra["M"] == pytest.approx([0.0, REF["static"]["M_A_y_Nm"], 0.0], abs=0.005)
 
 
 def test_static_reactions_match_analytic(static_result):
@@ -100,6 +103,30 @@ def test_dynamic_zero_components_and_constraint(dynamic_result):
 
 
 def test_dynamic_settles_to_static(dynamic_result):
-    # The swing is damped: the mean B_z over the last period is near the static 75.13 N.
+    """Momentum balance in z over the last 0.4 s (two swings of F_z): the clamps' vertical forces
+    (support on chain) averaged over [t1, t2] are the chain's weight plus the change of its
+    vertical momentum, mean(F_A,z + F_B,z) = W + (p_z(t2) - p_z(t1)) / (t2 - t1), with W = 5 body
+    weights = 2 x the static F_B,z (eq. 4.112; the thesis's 75.13 N, tests above).  The dampers
+    take the swing out, and what is left of it is that momentum term (-0.08 N of 150 N here)."""
     ts = dynamic_result.timeseries
-    assert 0.5 * (ts["FB_z"][-400:].max() + ts["FB_z"][-400:].min()) == pytest.approx(75.13, abs=2.0)
+    t = ts["t"]
+    h = t[1] - t[0]                                            # dt_out = 1 ms
+    weight, _, _ = analytic_six_link()                         # one body's weight, eq. 4.110
+    mass = weight / 9.81
+    z = np.array([ts[f"z{b}"] for b in range(1, 6)])           # the bodies' CM heights [m]
+    i1, i2 = len(t) - 401, len(t) - 2                          # a sample each side for the CM rates
+    total = ts["FA_z"] + ts["FB_z"]
+    mean = np.trapezoid(total[i1:i2 + 1], t[i1:i2 + 1]) / (t[i2] - t[i1])
+
+    def momentum(i):
+        """sum m z_dot at sample i, the rates by central differences."""
+        return mass * np.sum(z[:, i + 1] - z[:, i - 1]) / (t[i + 1] - t[i - 1])
+
+    change = (momentum(i2) - momentum(i1)) / (t[i2] - t[i1])
+    # Tolerance from the numerics: the trapezoid rule (h^2/12 max|F''|, F'' from the samples'
+    # second differences), the central differences (h^2/6 max|z'''| per body, at both ends of the
+    # window) and the integration (rtol = 1e-8 of the forces, ten times over): 6e-5 N together.
+    quadrature = np.max(np.abs(np.diff(total[i1 - 1:i2 + 2], 2))) / 12.0
+    rates = 2.0 * 5 * mass * np.max(np.abs(np.diff(z[:, i1 - 3:i2 + 4], 3, axis=1))) / (6.0 * h) / (t[i2] - t[i1])
+    integration = 10.0 * 1e-8 * np.max(np.abs(total))
+    assert mean == pytest.approx(5.0 * weight + change, abs=quadrature + rates + integration)
