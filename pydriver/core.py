@@ -236,10 +236,14 @@ class CoreModel:
         return q, v
 
     def shape(self, q, t: float = 0.0) -> dict:
-        """Thesis angles (n, 2) [rad], CMs (n, 3), joint points (n+1, 3) [m], R_n at (q, t)."""
+        """Thesis angles (n, 2) [rad], CMs (n, 3), joint points (n+1, 3) [m], every body's rotation
+        R_j (n, 3, 3; model frame <- body j, its columns the body's axes e1, e2, e3, e3 along the
+        body) and R_n (``last_rotation``) at (q, t)."""
         angles, cm, joints, rot, stat, key, msg = _api.rc_shape(self.handle, float(t), _reals(q), self.n_bodies)
         _raise(self.deck, stat, key, msg)
-        return {"angles": angles.T.copy(), "cm": cm.T.copy(), "joints": joints.T.copy(), "last_rotation": rot}
+        rotations = np.moveaxis(rot, 2, 0).copy()
+        return {"angles": angles.T.copy(), "cm": cm.T.copy(), "joints": joints.T.copy(), "rotations": rotations,
+                "last_rotation": rotations[-1]}
 
     # -- analyses -------------------------------------------------------------------------
     def static(self, q_start, t: float, tol: float, max_iter: int):

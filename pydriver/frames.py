@@ -53,6 +53,10 @@ class Frames:
         (n,) Miner damage per flight hour of joints 1 ... n (runs with &fatigue) [1/h].
     periodic : bool
         The frames are one revolution that repeats (flight).
+    q : numpy.ndarray or None
+        (frames, nq) the coordinates [rad] of each frame, where the record at hand holds them (its
+        ``*_coord_deg`` columns are q in order, record_columns.coordinate_columns): the bodies'
+        orientations follow from them (the cable's twist in the ParaView export).
     """
 
     rows: np.ndarray
@@ -63,6 +67,7 @@ class Frames:
     bending: np.ndarray
     damage: np.ndarray | None
     periodic: bool
+    q: np.ndarray | None = None
 
 
 def frame_rows(n_rows: int, periodic: bool, max_frames: int) -> np.ndarray:
@@ -154,4 +159,14 @@ def cable_frames(result, max_frames: int, timeseries_path=None) -> Frames | None
                   points=joint_points(cols, n, sel),
                   strain=np.column_stack([np.asarray(cols[f"strain{j + 1}"])[sel] for j in range(n)]),
                   bending=np.column_stack([np.asarray(cols[f"bending{j + 1}_Nm"])[sel] for j in range(n)]),
-                  damage=damage, periodic=periodic)
+                  damage=damage, periodic=periodic, q=_coordinates(cols, sel))
+
+
+def _coordinates(cols, sel) -> np.ndarray | None:
+    """(frames, nq) coordinates [rad] from the record's ``*_coord_deg`` columns (in q's order), or
+    None when the columns at hand do not hold them (a record streamed from HDF5 reads only the
+    columns the frames draw)."""
+    names = [c for c in cols if str(c).endswith("_coord_deg")]
+    if not names:
+        return None
+    return np.radians(np.column_stack([np.asarray(cols[c], float)[sel] for c in names]))

@@ -272,7 +272,7 @@ contains
   end subroutine rc_thesis_coordinates
 
   !> Shape at (q, t): thesis angles, CMs, joint points, and the last body's rotation.
-  subroutine rc_shape(handle, t, nq, q, nb, angles, cm, joints, last_rotation, stat, key, msg)
+  subroutine rc_shape(handle, t, nq, q, nb, angles, cm, joints, rotations, stat, key, msg)
     integer(c_int), intent(in) :: handle          !< model handle
     real(c_double), intent(in) :: t               !< time [s]
     integer(c_int), intent(in) :: nq, nb          !< coordinates, bodies
@@ -280,17 +280,17 @@ contains
     real(c_double), intent(out) :: angles(2, nb)  !< thesis gamma, beta [rad]
     real(c_double), intent(out) :: cm(3, nb)      !< centres of mass [m]
     real(c_double), intent(out) :: joints(3, nb + 1)  !< joint points, last = tip [m]
-    real(c_double), intent(out) :: last_rotation(3, 3)  !< R_n
+    real(c_double), intent(out) :: rotations(3, 3, nb)  !< R_j: model frame <- body j (R_n: the last body)
     integer(c_int), intent(out) :: stat           !< status
     character(len=64), intent(out) :: key         !< input at fault
     character(len=1024), intent(out) :: msg       !< why
     type(model_type), pointer :: model
     type(error_type) :: error
-    angles = 0.0_dp; cm = 0.0_dp; joints = 0.0_dp; last_rotation = 0.0_dp
+    angles = 0.0_dp; cm = 0.0_dp; joints = 0.0_dp; rotations = 0.0_dp
     model => model_of(handle, error)
     if (error%code == 0) call check_sizes(model, nq, nb, 'rc_shape', error)
     if (error%code == 0) then
-      call shape_of(model, t, q, angles, cm, joints, last_rotation)
+      call shape_of(model, t, q, angles, cm, joints, rotations=rotations)
     end if
     call report(error, stat, key, msg)
   end subroutine rc_shape

@@ -101,7 +101,7 @@ contains
 
   !> The thesis's (gamma, beta) of every body [rad] for q, and the CMs, joint points and the last
   !> body's rotation at (q, t) (the frames of q, evaluated unless the workspace holds them).
-  subroutine shape_of(model, t, q, angles, cm, joints, last_rotation)
+  subroutine shape_of(model, t, q, angles, cm, joints, last_rotation, rotations)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t                 !< time [s]
     real(dp), intent(in) :: q(:)              !< coordinates [rad]
@@ -109,6 +109,7 @@ contains
     real(dp), intent(out) :: cm(:, :)         !< (3,n) centres of mass [m]
     real(dp), intent(out) :: joints(:, :)     !< (3,n+1) joint points [m]
     real(dp), intent(out), optional :: last_rotation(3, 3)  !< R_n
+    real(dp), intent(out), optional :: rotations(:, :, :)   !< (3,3,n) R_j: model frame <- body j
     integer :: j
     call positions_at(model, t, q)
     do j = 1, model%chain%n_bodies
@@ -117,6 +118,7 @@ contains
     cm = model%st%cm
     joints = model%st%joint_point
     if (present(last_rotation)) last_rotation = model%st%rot(:, :, model%chain%n_bodies)
+    if (present(rotations)) rotations = model%st%rot
   end subroutine shape_of
 
   !> Velocities of the supports relative to the model frame at time t: P_1 and the base

@@ -249,3 +249,23 @@ def test_campbell_run_writes_its_tracked_modes_at_the_operating_speed(tmp_path):
         d = [m.point_data["displacement_m"] for m in meshes]
         assert max(np.max(np.linalg.norm(x, axis=1)) for x in d) == pytest.approx(0.059, rel=1e-12)
         assert max(np.linalg.norm(x[-1]) for x in d) < 1e-8
+
+
+def test_the_vtk_cells_carry_each_bodys_orientation_and_the_points_the_jacket_radius(tmp_path):
+    """Issue 37: the ParaView files show the cable's twist and its thickness.  Each body's cell
+    data ``axis`` is the unit vector from its joint point to the next (the body's e3: the same
+    kinematics, so to round-off, 1e-12), ``normal`` is a unit vector orthogonal to it (the body's e1,
+    turning with the twist), and ``radius_m`` is half the deck's diameter at every point."""
+    import meshio
+    deck = INPUTS / "uh60_part2_forward_flight_cable.nml"
+    model = pydriver.Model.from_deck(deck).with_changes({"refinement.levels": 1, "solver.floquet": False,
+                                                        "solver.samples_per_rev": 36})
+    pydriver.run_deck(model, out=tmp_path / "run", vtk=True)
+    mesh = meshio.read(tmp_path / "run" / "cable_0005.vtu")
+    p = mesh.points
+    chord = (p[1:] - p[:-1]) / np.linalg.norm(p[1:] - p[:-1], axis=1)[:, None]
+    axis, normal = mesh.cell_data["axis"][0], mesh.cell_data["normal"][0]
+    assert np.max(np.abs(axis - chord)) < 1e-12
+    assert np.max(np.abs(np.sum(axis * normal, axis=1))) < 1e-12
+    assert np.max(np.abs(np.linalg.norm(normal, axis=1) - 1.0)) < 1e-12
+    assert np.allclose(mesh.point_data["radius_m"], 0.0075, rtol=1e-12)     # diameter 0.015 m
