@@ -1,5 +1,5 @@
 """Command line (``rotorcable`` or ``python -m pydriver``): ``run DECK [--out DIR] [--plots]
-[--report] [--vtk] [--json]``, ``study NAME``,
+[--report] [--vtk] [--json]``, ``study NAME``, ``keys [GROUP or KEY]``, ``outputs [FILE]``, ``docs``,
 ``sweep BASE --set GROUP.KEY=VALUES ... --out DIR`` (and ``sweep-task``/``sweep-collect`` for
 Slurm arrays)."""
 
@@ -130,6 +130,7 @@ def build_parser() -> argparse.ArgumentParser:
     init.add_argument("deck", help="the new deck's path (must not exist)")
     init.add_argument("--like", default="uh60_part2_forward_flight_cable",
                       help="the example to start from (see `rotorcable examples`)")
+    _add_reference_parsers(sub)
     _add_sweep_parsers(sub)
     return parser
 
@@ -137,6 +138,8 @@ def build_parser() -> argparse.ArgumentParser:
 def _main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    if args.command in ("keys", "outputs", "docs"):
+        return _reference_command(args)
     if args.command in ("examples", "init"):
         return _examples_command(args)
     if args.command in ("sweep", "sweep-task", "sweep-collect"):
@@ -227,6 +230,45 @@ def _examples_command(args) -> int:
         return 2
     print(f"copied {len(written)} example decks to {args.dir}/"
           + (f"; kept {len(kept)} already there: {', '.join(p.name for p in kept)}" if kept else ""))
+    return 0
+
+
+def _add_reference_parsers(sub):
+    from pydriver.reference import FORMATS
+    fmt = dict(choices=FORMATS, default="text",
+               help="text for the terminal (default), markdown, or html (one self-contained page)")
+    keys = sub.add_parser("keys", help="the deck reference: every group and key a deck may have",
+                          description="Print the deck reference (generated from the schema): a group's keys "
+                                      "(rotorcable keys chain), the groups that have a key (rotorcable keys "
+                                      "t_end), one key (rotorcable keys solver.t_end), or all of them.")
+    keys.add_argument("name", nargs="?", default="", metavar="GROUP or KEY",
+                      help="a group (chain, &chain), a key (t_end) or group.key (solver.t_end)")
+    keys.add_argument("--format", **fmt)
+    outputs = sub.add_parser("outputs", help="the output reference: every file a run writes and its columns",
+                             description="Print the output reference: every file a run, a sweep or a study "
+                                         "writes, its columns with units and meanings.")
+    outputs.add_argument("file", nargs="?", default="", metavar="FILE",
+                         help="one output file (fatigue.csv, or fatigue)")
+    outputs.add_argument("--format", **fmt)
+    docs = sub.add_parser("docs", help="the whole reference: deck keys and output files",
+                          description="Print the deck reference and the output reference together, e.g. "
+                                      "rotorcable docs --format html > rotorcable.html")
+    docs.add_argument("--format", **fmt)
+
+
+def _reference_command(args) -> int:
+    from pydriver.reference import full_reference, keys_reference, outputs_reference, print_text
+    try:
+        if args.command == "keys":
+            text = keys_reference(args.name, args.format)
+        elif args.command == "outputs":
+            text = outputs_reference(args.file, args.format)
+        else:
+            text = full_reference(args.format)
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    print_text(text)
     return 0
 
 

@@ -60,6 +60,12 @@ def copy_examples(dest) -> tuple[list[Path], list[Path]]:
     return written, kept
 
 
+#: Where ``init``'s header sends a user for the keys: commands of the installed program (the
+#: source tree's docs/ are not installed); tests/test_packaging.py runs each of them.
+HEADER_REFERENCE = ("Every key: `rotorcable keys` (one group: `rotorcable keys chain`,\n"
+                    "! one key: `rotorcable keys t_end`); the output files: `rotorcable outputs`.")
+
+
 def init_deck(path, like: str) -> Path:
     """Write a new deck ``path`` that starts as the example ``like``, with a header saying so.
 
@@ -78,9 +84,9 @@ def init_deck(path, like: str) -> Path:
         raise FileExistsError(f"{path} exists; rotorcable init never replaces a file (choose another name)")
     text = (examples_dir() / f"{like}.nml").read_text(encoding="utf-8")
     header = (f"! {path.name}: a new deck, started on {date.today().isoformat()} from the example '{like}'\n"
-              "! (rotorcable init).  Every key is explained in docs/deck_reference.md (or\n"
-              "! `python -m pydriver.deck_reference`); SI units, angles in degrees.  Change the case name,\n"
-              "! the cable and the supports, then: rotorcable run " + path.name + "\n!\n")
+              f"! (rotorcable init).  {HEADER_REFERENCE}\n"
+              "! SI units, angles in degrees.  Change the case name, the cable and the supports, then:\n"
+              f"! rotorcable run {path.name}\n!\n")
     text = text.replace(f"name = '{like}'", f"name = '{path.stem}'", 1)
     path.parent.mkdir(parents=True, exist_ok=True)
     try:

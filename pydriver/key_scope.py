@@ -340,7 +340,7 @@ class Ignored:
 
 def describe(group: str, key: str) -> str:
     """Where ``&group key`` acts, in words for the deck reference (empty: everywhere), e.g.
-    ``"Acts in flight runs only."`` (:func:`pydriver.schema.reference_markdown`)."""
+    ``"Acts in flight runs only."`` (:func:`pydriver.deck_reference.reference_markdown`)."""
     where, conditions = set(ANALYSES), []
     for scope in SCOPES:
         if scope.names(group, key):

@@ -13,10 +13,10 @@ Patterns: ``{j}`` is a joint or body number, ``{k}`` a mode number, ``{n}`` a nu
 
 from __future__ import annotations
 
+import difflib
 import re
 import sys
 from dataclasses import dataclass
-from pathlib import Path
 
 
 @dataclass(frozen=True)
@@ -175,12 +175,61 @@ COLUMNS = [
     Column(SWEEP, "energy_drift_rel", "-", "relative energy drift of a dynamic run"),
     Column(SWEEP, "solver_{counter}", "-", "solver statistics (steps, residuals, ...)"),
     Column(SWEEP, "error", "-", "the error of a failed run"),
+    # -- studies (rotorcable study NAME; pydriver/study.py, pydriver/design_study.py) -------------------
+    Column(("frequency_vs_cy.csv",), "springs.c_beta", "Nm/rad",
+           "the bending spring of every joint, &springs c_beta (the thesis's c_y), of uh60_part2_modal.nml"),
+    Column(("frequency_vs_cy.csv",), "f_undamped_hz", "Hz", "first undamped natural frequency"),
+    Column(("frequency_vs_cy.csv",), "f_damped_hz", "Hz", "first damped frequency"),
+    Column(("frequency_vs_cy.csv",), "zeta", "-", "damping ratio of the first mode"),
+    Column(("flap_crossing.json",), "f_flap_hz", "Hz", "the blade's flap frequency the first frequency is compared with"),
+    Column(("flap_crossing.json",), "c_y_Nm_per_rad", "Nm/rad",
+           "&springs c_beta (the thesis's c_y) at which the first damped frequency equals f_flap_hz (bisection)"),
+    Column(("flap_crossing.json",), "thesis_reading_Nm_per_rad", "Nm/rad", "the value the thesis reads off its "
+                                                                           "Figure 5.9 (docs/model.md)"),
+    Column(("refinement.json",), "n_bodies", "-", "the numbers of bodies the part 2 cable is cut into (n = 11, 22, 44, "
+                                                  "88)"),
+    Column(("refinement.json",), "f_undamped_hz", "Hz", "first undamped natural frequency at each n"),
+    Column(("refinement.json",), "f_damped_hz", "Hz", "first damped frequency at each n"),
+    Column(("refinement.json",), "observed_order_undamped", "-",
+           "observed order of convergence of the undamped frequency over the three finest runs"),
+    Column(("design_study.json",), "deck", "-", "the design deck the study ran"),
+    Column(("design_study.json",), "objective", "-", "the &design objective minimised"),
+    Column(("design_study.json",), "starts.{start}", "-",
+           "the optimisation from one start ('deck': the deck's values; 'all lower', 'all upper': every "
+           "parameter at its bound), as summary.json's design block: objective (start, optimum), parameters, "
+           "iterations, runs, converged, message, frequency_margin"),
+    Column(("design_study.json",), "starts.{start}.life_hours", "h", "the shortest fatigue life of that optimum at "
+                                                                    "the deck's n"),
+    Column(("design_study.json",), "starts.{start}.frequency_shifts_hz", "Hz",
+           "f1(converged) - f1(n) of the hover state the frequency margin was judged with (one per pass)"),
+    Column(("design_study.json",), "starts.{start}.optimum_changes", "*",
+           "the optimum as deck changes, {\"group.key\": value} (units of the deck reference)"),
+    Column(("design_study.json",), "best", "-", "the start whose converged optimum holds the margin with the "
+                                                "least objective"),
+    Column(("design_study.json",), "{state}.n", "-", "the numbers of bodies of the refined runs of the deck's design "
+                                                     "(before) and of the best optimum (after)"),
+    Column(("design_study.json",), "{state}.values_h", "h", "the shortest fatigue life at each n"),
+    Column(("design_study.json",), "{state}.extrapolated_h", "h", "its Richardson extrapolation: the converged life"),
+    Column(("design_study.json",), "{state}.error_estimate_h", "h", "its error estimate"),
+    Column(("design_study.json",), "{state}.observed_order", "-", "the life's observed order of convergence"),
+    Column(("design_study.json",), "{state}.warning", "-", "the refinement's warning about the life (empty: none)"),
+    Column(("design_study.json",), "{state}.f1_hz", "Hz", "the converged first undamped frequency of the hover state"),
+    Column(("design_study.json",), "{state}.f1_error_hz", "Hz", "its error estimate"),
+    Column(("design_study.json",), "{state}.f1_values_hz", "Hz", "the first frequency at each n"),
+    Column(("design_study.json",), "{state}.nearest_harmonic", "-", "the rotor harmonic k nearest to it (k/rev)"),
+    Column(("design_study.json",), "{state}.margin_percent", "%", "its distance from k/rev, in percent of k/rev"),
+    Column(("design_study.json",), "{state}.worst_margin_percent", "%", "the margin narrowed by the error bar"),
+    Column(("design_study.json",), "required_margin_percent", "%", "&design frequency_margin_percent (null: none)"),
+    Column(("design_study.json",), "life_gain", "-", "converged life after / converged life before"),
+    Column(("design_study.json",), "warning", "-", "present when the optimum's converged first frequency is closer "
+                                                   "to a harmonic than the required margin"),
 ]
 
 _PLACEHOLDER = {"{coord}": "(?:gamma|beta|cardan_x|cardan_y|twist)", "{j}": r"\d+", "{k}": r"\d+",
                 "{n}": r"\d+", "{c}": "[xyz]", "{a}": "[xy]", "{s}": "[AB]",
                 "{q}": "(?:axial_N|shear_N|bending_Nm|torsion_Nm|strain)",
-                "{group}": r"[a-z_]+", "{key}": r"[a-z_0-9]+(?:\(\d+\))?", "{counter}": r"[a-z_]+"}
+                "{group}": r"[a-z_]+", "{key}": r"[a-z_0-9]+(?:\(\d+\))?", "{counter}": r"[a-z_]+",
+                "{state}": "(?:before|after)", "{start}": r"[^.]+"}
 _FAT_STAT = re.compile(r"^(axial_N|shear_N|bending_Nm|torsion_Nm|strain)_(min|max|mean|amplitude)$")
 
 
@@ -267,57 +316,88 @@ SUMMARY_KEYS: tuple[tuple[str, str, str], ...] = (
 )
 
 
+def outputs_document(file: str = ""):
+    """The output reference as a :class:`pydriver.document.Document`: every output file and its
+    columns (``docs/outputs.md``, ``rotorcable outputs``); ``file`` narrows it to one file
+    (``fatigue.csv``, or ``fatigue``).
+
+    Raises
+    ------
+    ValueError
+        ``file`` is no output file; the message lists them.
+    """
+    from pydriver.document import Document, Section, Table
+
+    doc = Document("Output files", source_note=(
+        "Generated from `pydriver/output_columns.py` by `python -m pydriver.output_columns`; do not edit by "
+        "hand (CI checks that this file is current).  The installed program prints the same reference: "
+        "`rotorcable outputs [FILE]`."))
+    doc.paragraphs += [
+        "Every CSV header carries its column's unit in brackets, e.g. `FA_x [N]` (`[-]`: dimensionless). "
+        "`pydriver.load_results` and `pydriver.output.read_csv` give the columns by their bare names "
+        "(`FA_x`), as before units were added.  `{j}` is a joint or body number (from clamp A), `{k}` a "
+        "mode, `{n}` a number of bodies, `{c}` one of x, y, z, `{a}` one of x, y, `{s}` a support, A or B. "
+        "A unit `*` depends on the deck (the S-N curve's quantity) or on the row (refinement.csv's and "
+        "sensitivities.csv's `unit`; their headers say `[*]` there). "
+        "`timeseries.h5` (large runs, or `&solver output_format = 'hdf5'`) is netCDF4: "
+        "`xarray.open_dataset(path, engine='h5netcdf')` opens it with dimensions time, body, joint, "
+        "component and bending_axis; the columns below are grouped into variables `cm`, `F_A`, `M_A`, `F_B`, "
+        "`M_B`, `tip`, `gamma`, `beta`, `axial`, `shear`, `bending`, `torsion`, `curvature`, `strain`, "
+        "`moment`, `kappa` (the rest keep their names), each with `units` and `long_name` attributes "
+        "(`pydriver/netcdf_layout.py`).  "
+        "A blank cell is a value that does not exist (a life without damage, a crossing missing at one "
+        "refinement level); no file holds NaN or Inf.",
+        "Besides the tables: `summary.json` (every scalar result, warnings, solver statistics), "
+        "`table.txt` (the equilibrium in the layout of the thesis's appendix; English, or German with "
+        "`&output table_language = 'de'`), `report.html` (with the cable's animation for flight and dynamic "
+        "runs), the PNG plots, `checkpoint.npz` (dynamic runs: the end state for `run --restart`), `cable.pvd` "
+        "and `cable_NNNN.vtu` (`--vtk`: a ParaView time series of the "
+        "cable, point data strain, bending moment, damage and the jacket radius `radius_m`, cell data each "
+        "body's `axis` and `normal` (its twist); a static run's equilibrium, one frame), "
+        "`mode<k>.pvd` and `mode<k>_NN.vtu` (`--vtk`, modal and Campbell runs: mode k over one period in 24 "
+        "frames, point data `displacement_m` [m]), and `.rotorcable-run.json` (the marker: "
+        "program, kind of output (`run`, `study <name>`, `sweep`, `sweep error`), deck, the directory it "
+        "was written to and the files it wrote; a later output replaces only an earlier one of the "
+        "same kind, and deletes only the files listed there, `pydriver/ownership.py`).  A sweep "
+        "directory has one too, listing the files the sweep wrote itself (`sweep.json`, `decks/`, "
+        "`sweep.csv`, `plots/`, `report.html`, `sweep.slurm`); each record in `runs/<id>/` has its own.  "
+        "The studies (`rotorcable study NAME`) write `frequency_vs_cy.csv` and `flap_crossing.json` "
+        "(cy-sweep), `refinement.json` (refine) and `design_study.json` (design), each with its plots; a "
+        "dotted key of a JSON file is a key inside a group."]
+    files = sorted({f for c in COLUMNS for f in c.files})
+    wanted = file.strip()
+    if wanted:
+        chosen = [f for f in files if wanted in (f, f.rsplit(".", 1)[0])]
+        if wanted in ("summary", "summary.json"):
+            chosen = ["summary.json"]
+        if not chosen:
+            close = difflib.get_close_matches(wanted, files + ["summary.json"], n=3, cutoff=0.5)
+            raise ValueError(f"'{file}' is no output file" + (f"; did you mean {' or '.join(close)}?" if close else "")
+                             + " The files: " + ", ".join(files + ["summary.json"]))
+        files = [f for f in chosen if f != "summary.json"]
+    for f in files:
+        what = "key" if f.endswith(".json") else "column"
+        table = Table((what, "unit", "meaning"),
+                      [(f"`{c.pattern}`", c.unit, c.meaning) for c in COLUMNS if f in c.files])
+        doc.sections.append(Section(f"`{f}`", table=table))
+    if not wanted or wanted in ("summary", "summary.json"):
+        doc.sections.append(Section("`summary.json` (selected keys)", table=Table(
+            ("key", "unit", "meaning"), [(f"`{key}`", unit, meaning) for key, unit, meaning in SUMMARY_KEYS])))
+    return doc
+
+
 def outputs_markdown() -> str:
     """``docs/outputs.md``: every output file and its columns (generated)."""
-    lines = ["# Output files", "",
-             "Generated from `pydriver/output_columns.py` by `python -m pydriver.output_columns`; do not edit by "
-             "hand (CI checks that this file is current).", "",
-             "Every CSV header carries its column's unit in brackets, e.g. `FA_x [N]` (`[-]`: dimensionless). "
-             "`pydriver.load_results` and `pydriver.output.read_csv` give the columns by their bare names "
-             "(`FA_x`), as before units were added.  `{j}` is a joint or body number (from clamp A), `{k}` a "
-             "mode, `{n}` a number of bodies, `{c}` one of x, y, z, `{a}` one of x, y, `{s}` a support, A or B. "
-             "A unit `*` depends on the deck (the S-N curve's quantity) or on the row (refinement.csv's and sensitivities.csv's `unit`; "
-             "their headers say `[*]` there). "
-             "`timeseries.h5` (large runs, or `&solver output_format = 'hdf5'`) is netCDF4: "
-             "`xarray.open_dataset(path, engine='h5netcdf')` opens it with dimensions time, body, joint, "
-             "component and bending_axis; the columns below are grouped into variables `cm`, `F_A`, `M_A`, `F_B`, "
-             "`M_B`, `tip`, `gamma`, `beta`, `axial`, `shear`, `bending`, `torsion`, `curvature`, `strain`, "
-             "`moment`, `kappa` (the rest keep their names), each with `units` and `long_name` attributes "
-             "(`pydriver/netcdf_layout.py`).  "
-             "A blank cell is a value that does not exist (a life without damage, a crossing missing at one "
-             "refinement level); no file holds NaN or Inf.",
-             "", "Besides the tables: `summary.json` (every scalar result, warnings, solver statistics), "
-             "`table.txt` (the equilibrium in the layout of the thesis's appendix; English, or German with "
-             "`&output table_language = 'de'`), `report.html` (with the cable's animation for flight and dynamic "
-             "runs), the PNG plots, `checkpoint.npz` (dynamic runs: the end state for `run --restart`), `cable.pvd` and `cable_NNNN.vtu` (`--vtk`: a ParaView time series of the "
-             "cable, point data strain, bending moment and damage; a static run's equilibrium, one frame), "
-             "`mode<k>.pvd` and `mode<k>_NN.vtu` (`--vtk`, modal and Campbell runs: mode k over one period in 24 "
-             "frames, point data `displacement_m` [m]), and `.rotorcable-run.json` (the marker: "
-             "program, kind of output (`run`, `study <name>`, `sweep`, `sweep error`), deck, the directory it "
-             "was written to and the files it wrote; a later output replaces only an earlier one of the "
-             "same kind, and deletes only the files listed there, `pydriver/ownership.py`).  A sweep "
-             "directory has one too, listing the files the sweep wrote itself (`sweep.json`, `decks/`, "
-             "`sweep.csv`, `plots/`, `report.html`, `sweep.slurm`); each record in `runs/<id>/` has its own.",
-             ""]
-    files = sorted({f for c in COLUMNS for f in c.files})
-    for f in files:
-        lines += [f"## `{f}`", "", "| column | unit | meaning |", "|---|---|---|"]
-        for c in COLUMNS:
-            if f in c.files:
-                lines.append(f"| `{c.pattern}` | {c.unit} | {c.meaning} |")
-        lines.append("")
-    lines += ["## `summary.json` (selected keys)", "", "| key | unit | meaning |", "|---|---|---|"]
-    lines += [f"| `{key}` | {unit} | {meaning} |" for key, unit, meaning in SUMMARY_KEYS]
-    lines.append("")
-    return "\n".join(lines)
+    from pydriver.document import markdown
+    return markdown(outputs_document())
 
 
 def main(argv=None) -> int:
-    path = Path(argv[0]) if argv else Path(__file__).resolve().parent.parent / "docs" / "outputs.md"
-    path.write_text(outputs_markdown(), encoding="utf-8")
-    print(f"wrote {path}")
-    return 0
+    """Write ``docs/outputs.md`` (or PATH; installed: print it, see pydriver.reference.write_generated)."""
+    from pydriver.reference import write_generated
+    argv = sys.argv[1:] if argv is None else argv
+    return write_generated(argv, "outputs.md", outputs_markdown(), "# Output files")
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))
+    sys.exit(main())

@@ -4,7 +4,8 @@ Each :class:`Key` has its group, type, shape, unit, allowed range or choices, de
 one-line doc.  This one table drives
 
 * validation and the error messages (:mod:`pydriver.deckfile`: deck, group, key, reason),
-* ``docs/deck_reference.md`` (:func:`reference_markdown`, checked in CI to be current),
+* ``docs/deck_reference.md`` and ``rotorcable keys`` (:func:`reference_document`; the file is
+  checked in CI to be current),
 * the sweep's key handling (which keys are arrays, how a swept value is parsed).
 
 Shapes: ``scalar``; ``vec3`` (exactly 3 values); ``body`` and ``joint`` (one value per body or
@@ -16,6 +17,7 @@ are in :mod:`pydriver.deck_rules`.
 
 from __future__ import annotations
 
+import difflib
 import math
 from dataclasses import dataclass
 
@@ -449,38 +451,77 @@ def lookup(group: str, name: str) -> Key | None:
     return GROUPS.get(group.lower(), {}).get(name.lower())
 
 
-def reference_markdown() -> str:
-    """``docs/deck_reference.md``: the schema as tables, one per group (generated)."""
-    lines = ["# Deck reference", "",
-             "Generated from `pydriver/schema.py` by `python -m pydriver.deck_reference`; do not edit by hand "
-             "(CI checks that this file is current).", "",
-             "A deck is a Fortran namelist file: groups `&name ... /`, keys `key = value`, arrays as "
-             "`key = v1, v2, 3*v3` or element by element `key(2) = v`, comments after `!`.  "
-             "SI units; angles in degrees.  Shapes: `body`/`joint` take one value per body or joint "
-             "(n = `n_bodies`) or a single value for all; `vec3` exactly three; `list` any number.  "
-             "Start shapes, start rates and rest angles (shape `body*`/`joint*`) do not broadcast a "
-             "single nonzero value: a Fortran namelist read would set element 1 only, so write "
-             "`n*value` (e.g. `11*12.0`).  Repeat counts are at most 20000, and numbers are plain "
-             "Fortran reals (`1.2.3` and the letterless exponent `1-70` are refused).  "
-             f"Required groups: {', '.join('&' + g for g in REQUIRED_GROUPS)}.", ""]
-    from pydriver.key_scope import describe        # where each key acts (its table reads this one)
-    lines[-2] += ("  Where a key does not act everywhere its meaning says so (*Acts in ... only*, from "
-                  "`pydriver/key_scope.py`); a run that sets it where it does not act warns.")
-    for group, keys in GROUPS.items():
-        lines += [f"## &{group}", "", GROUP_DOCS.get(group, ""), "",
-                  "| key | type | shape | unit | allowed | default | meaning |",
-                  "|---|---|---|---|---|---|---|"]
-        for key in keys.values():
+def groups_of(name: str) -> list[str]:
+    """The groups that have a key ``name``, in the schema's order."""
+    return [g for g, keys in GROUPS.items() if name.lower() in keys]
+
+
+def reference_document(name: str = "", acts=None):
+    """The deck reference as a :class:`pydriver.document.Document`: the schema as tables, one
+    per group (``docs/deck_reference.md``, ``rotorcable keys``).
+
+    ``name`` narrows it: a group (``chain``, ``&chain``), a key of any group (``t_end``: every
+    group that has it) or one key (``solver.t_end``, ``&solver t_end``).  ``acts(group, key)``
+    says where a key acts when not everywhere (:func:`pydriver.key_scope.describe`, given by the
+    callers: the scope table reads this schema, so the schema does not import it).
+
+    Raises
+    ------
+    ValueError
+        ``name`` is no group and no key; the message names the closest ones.
+    """
+    from pydriver.document import Document, Section, Table
+
+    doc = Document("Deck reference", source_note=(
+        "Generated from `pydriver/schema.py` by `python -m pydriver.deck_reference`; do not edit by hand "
+        "(CI checks that this file is current).  The installed program prints the same reference: "
+        "`rotorcable keys [GROUP or KEY]`."))
+    doc.paragraphs.append(
+        "A deck is a Fortran namelist file: groups `&name ... /`, keys `key = value`, arrays as "
+        "`key = v1, v2, 3*v3` or element by element `key(2) = v`, comments after `!`.  "
+        "SI units; angles in degrees; a decimal point, never a comma (`0,590` is two values).  "
+        "Shapes: `body`/`joint` take one value per body or joint "
+        "(n = `n_bodies`) or a single value for all; `vec3` exactly three; `list` any number.  "
+        "Start shapes, start rates and rest angles (shape `body*`/`joint*`) do not broadcast a "
+        "single nonzero value: a Fortran namelist read would set element 1 only, so write "
+        "`n*value` (e.g. `11*12.0`).  Repeat counts are at most 20000, and numbers are plain "
+        "Fortran reals (`1.2.3` and the letterless exponent `1-70` are refused).  "
+        f"Required groups: {', '.join('&' + g for g in REQUIRED_GROUPS)}.")
+    if acts is not None:
+        doc.paragraphs[-1] += ("  Where a key does not act everywhere its meaning says so (*Acts in ... only*, "
+                               "from `pydriver/key_scope.py`); a run that sets it where it does not act warns.")
+    if name.strip():                               # one group or key: its table is the answer
+        doc.paragraphs.clear()
+    for group, keys in _selected_keys(name).items():
+        table = Table(("key", "type", "shape", "unit", "allowed", "default", "meaning"))
+        for key in keys:
             default = "—" if key.default is None else _default_text(key.default)
-            allowed = key.range_text().replace("|", "or")        # a bare | would split the cell
+            allowed = key.range_text().replace("|", "or")        # a bare | would split a Markdown cell
             shape = key.shape + ("*" if not key.broadcast and key.shape in ("body", "joint") else "")
-            doc = key.doc + (" *Differentiable* (`&design parameters`)." if key.differentiable else "")
-            acts = describe(group, key.name).replace("|", "or")
-            doc += f" *{acts}*" if acts else ""
-            lines.append(f"| `{key.name}` | {key.type} | {shape} | {key.unit} | {allowed} "
-                         f"| {default} | {doc} |")
-        lines.append("")
-    return "\n".join(lines)
+            doc_text = key.doc + (". *Differentiable* (`&design parameters`)." if key.differentiable else "")
+            where = acts(group, key.name).replace("|", "or") if acts is not None else ""
+            doc_text += f" *{where}*" if where else ""
+            table.rows.append((f"`{key.name}`", key.type, shape, key.unit, allowed, default, doc_text))
+        doc.sections.append(Section(f"&{group}", [GROUP_DOCS.get(group, "")], table))
+    return doc
+
+
+def _selected_keys(name: str) -> dict[str, list[Key]]:
+    """{group: keys} of a reference narrowed by ``name`` (see :func:`reference_document`)."""
+    words = name.replace("&", " ").replace(".", " ").lower().split()
+    if not words:
+        return {g: list(keys.values()) for g, keys in GROUPS.items()}
+    if len(words) == 1 and words[0] in GROUPS:
+        return {words[0]: list(GROUPS[words[0]].values())}
+    if len(words) == 1 and groups_of(words[0]):
+        return {g: [GROUPS[g][words[0]]] for g in groups_of(words[0])}
+    if len(words) == 2 and lookup(*words) is not None:
+        return {words[0]: [lookup(*words)]}
+    names = list(GROUPS) + [k.name for k in KEYS] + [f"{k.group}.{k.name}" for k in KEYS]
+    close = list(dict.fromkeys(difflib.get_close_matches(".".join(words), names, n=4, cutoff=0.6)))
+    raise ValueError(f"'{name}' is no group and no key of a deck"
+                     + (f"; did you mean {' or '.join(close)}?" if close else "")
+                     + " The groups: " + ", ".join(GROUPS))
 
 
 def _default_text(v) -> str:

@@ -15,7 +15,8 @@ import pytest
 import pydriver
 from conftest import INPUTS, ROOT
 from pydriver.deckfile import deck_from_text, read_deck
-from pydriver.schema import KEYS, reference_markdown
+from pydriver.deck_reference import reference_markdown
+from pydriver.schema import KEYS
 
 SIX = (INPUTS / "six_link_static.nml").read_text()
 

@@ -45,6 +45,10 @@ def test_refined_life_is_the_plain_flight_runs_life(design):
     own = flight_analysis(flight(**changes))
     assert r["values_h"][0] == pytest.approx(own.summary["fatigue"]["hotspots"][0]["life_hours"], rel=1e-12)
     assert r["error_estimate_h"] > 0.0 and np.isfinite(r["extrapolated_h"])
+    # design_study.json's before and after blocks are these: each key has its row in the output
+    # reference (issue 37).
+    from pydriver.output_columns import column_of
+    assert [k for k in r for state in ("before", "after") if column_of("design_study.json", f"{state}.{k}") is None] == []
 
 
 def test_frequency_shift_is_the_hover_frequencys_discretisation_error(design):

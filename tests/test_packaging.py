@@ -7,6 +7,7 @@ these tests check that its extension has none and that it runs decks without the
 """
 
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -43,8 +44,9 @@ def test_every_example_deck_ships_in_the_wheel():
 def test_fresh_venv_gives_the_whole_tool(tmp_path):
     """A user's `pip install` of the wheel into a new venv (issue 22): the dependencies come with
     it (plots, report and progress bar need no extras), the example decks ship as package data,
-    --version, examples, init, run --plots --report, a sweep and a study all work outside the
-    source tree, and the study's CSV reads back as numbers."""
+    --version, the references (keys, outputs, docs; issue 37), examples, init (whose header points
+    to commands that work), run --plots --report, a sweep and a study all work outside the source
+    tree, and the study's CSV reads back as numbers."""
     env = dict(os.environ)
     env["PATH"] = os.path.dirname(sys.executable) + os.pathsep + env.get("PATH", "")
     env.pop("PYTHONPATH", None)
@@ -68,11 +70,30 @@ def test_fresh_venv_gives_the_whole_tool(tmp_path):
         return done.stdout
 
     assert run("--version").startswith("rotorcable ")
+    # The reference at hand (issue 37), from an empty directory: the installed package carries no
+    # docs/, the commands generate the references from its schema and output table.
+    from pydriver.schema import GROUPS
+    keys = run("keys")
+    assert all(f"\n&{g}\n" in keys for g in GROUPS) and "\n  n_bodies\n" in keys
+    assert "\n  t_end\n" in run("keys", "solver.t_end")
+    assert "\n  damage_per_hour\n" in run("outputs") and "frequency_vs_cy.csv" in run("outputs")
+    assert run("docs", "--format", "html").startswith("<!DOCTYPE html>")
+    assert run("keys", "--format", "markdown") + "\n" == (ROOT / "docs" / "deck_reference.md").read_text()
+    module = subprocess.run([str(venv / "bin" / "python"), "-m", "pydriver.deck_reference"], cwd=work,
+                            capture_output=True, text=True, env=user_env, timeout=120)
+    assert module.returncode == 0 and module.stdout.startswith("# Deck reference") and not module.stderr
+    assert not list(venv.glob("lib/python*/site-packages/docs")) and not list(work.iterdir())
     n_decks = len(list(INPUTS.glob("*.nml")))                         # every deck of inputs/ ships
     assert f"copied {n_decks} example decks" in run("examples", "ex")
     assert f"kept {n_decks} already there" in run("examples", "ex")  # never overwrites
     run("init", "mine.nml", "--like", "six_link_static")
-    assert "a new deck" in (work / "mine.nml").read_text()
+    header = (work / "mine.nml").read_text().split("\n&", 1)[0]
+    assert "a new deck" in header
+    # Every command init's header names works in the installed tool and explains keys or outputs.
+    commands = re.findall(r"`(rotorcable [^`]+)`", header)
+    assert len(commands) >= 3 and "docs/" not in header
+    for command in commands:
+        assert "\n  " in run(*command.split()[1:]), command
     text = run("run", "mine.nml", "--plots", "--report", "--out", "r1")
     assert "F_B [N]" in text and (work / "r1" / "report.html").is_file() and (work / "r1" / "shape.png").is_file()
     run("sweep", "ex/uh60_part2_modal.nml", "--set", "springs.c_beta=20,35", "--out", "sw", "--jobs", "1")
