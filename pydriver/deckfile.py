@@ -20,9 +20,9 @@ from pathlib import Path
 import f90nml
 import numpy as np
 
-from pydriver.deck_tokens import check_tokens
+from pydriver.deck_tokens import CommaDecimal, check_groups, check_tokens, comma_decimals
 from pydriver.errors import DeckError
-from pydriver.schema import GROUPS, REQUIRED_GROUPS, Key, lookup
+from pydriver.schema import GROUPS, REQUIRED_GROUPS, Key, lookup, unknown_key_reason
 from pydriver.shape_resample import resample
 
 # Comments and blank lines are removed before f90nml sees the text: its scanner walks the text
@@ -70,6 +70,9 @@ class Deck:
     path: Path | None = None
     raw: dict = field(default_factory=dict, repr=False)      #: f90nml's values, per group
     starts: dict = field(default_factory=dict, repr=False)   #: f90nml's start indices
+    #: {(group, key): CommaDecimal} of the real keys whose text has a decimal comma (``0,590``):
+    #: named beside any error of that key or of its group (:func:`with_comma_hint`)
+    comma_decimals: dict = field(default_factory=dict, repr=False)
 
     def with_values(self, changes: dict) -> "Deck":
         """A new deck with ``changes = {"group.key": value}`` (Python values or namelist
@@ -81,8 +84,8 @@ class Deck:
             group, _, name = dotted.lower().partition(".")
             key = lookup(group, name)
             if key is None:
-                raise DeckError(self.name, group, name, "unknown key" if group in GROUPS else
-                                f"unknown group &{group}")
+                raise DeckError(self.name, group, name, unknown_key_reason(group, name) if group in GROUPS
+                                else f"unknown group &{group}")
             if isinstance(value, str) and (key.type != "str" or value[:1] in "'\""):
                 value = parse_value_text(key, value, self.name)
             if isinstance(value, np.ndarray):
@@ -98,6 +101,8 @@ class Deck:
             starts.get(group, {}).pop(name, None)
         deck = validate(raw, starts, self.name)
         deck.path = self.path
+        deck.comma_decimals = {gk: c for gk, c in self.comma_decimals.items()
+                               if ".".join(gk) not in {d.lower() for d in changes}}
         return deck
 
     def __getitem__(self, dotted: str):
@@ -114,8 +119,21 @@ class Deck:
         return int(self.values["chain"]["n_bodies"])
 
     def fail(self, group: str, key: str, reason: str):
-        """Raise the DeckError of this deck."""
-        raise DeckError(self.name, group, key, reason)
+        """Raise the DeckError of this deck (with the decimal comma it may come from)."""
+        raise with_comma_hint(DeckError(self.name, group, key, reason), self.comma_decimals)
+
+
+def with_comma_hint(err: DeckError, commas: dict) -> DeckError:
+    """``err`` with the decimal comma of its key, or of another real key of its group, named
+    beside its reason (a rule may name the partner of the key written with one: table_rpm for
+    table_t)."""
+    comma = commas.get((err.group, err.key))
+    if comma is not None:
+        return DeckError(err.deck, err.group, err.key, f"{err.reason}; {comma.hint()}")
+    other = next(((k, c) for (g, k), c in commas.items() if g == err.group), None)
+    if other is None:
+        return err
+    return DeckError(err.deck, err.group, err.key, f"{err.reason}; note &{err.group} {other[0]}: {other[1].hint()}")
 
 
 def strip_comments(text: str) -> str:
@@ -212,7 +230,11 @@ def read_deck(path) -> Deck:
 
 def deck_from_text(text: str, name: str) -> Deck:
     """Validate a namelist text (see :func:`read_deck`)."""
-    nml = parse_namelist(strip_comments(text), name)
+    uncommented = _COMMENT.sub(lambda m: m.group(1) or "", text)
+    check_groups(uncommented, name)                 # on the deck's own lines: messages name them
+    text = _BLANK_LINES.sub("", uncommented)
+    commas = _real_comma_decimals(text, name)
+    nml = parse_namelist(text, name)
     raw: dict[str, dict] = {}
     starts: dict[str, dict] = {}
     for group, body in nml.items():
@@ -226,12 +248,37 @@ def deck_from_text(text: str, name: str) -> Deck:
         starts[group] = {k.lower(): v for k, v in getattr(body, "start_index", {}).items()}
         for key in raw[group]:
             if lookup(group, key) is None:
-                raise DeckError(name, group, key, f"unknown key; &{group} has: "
-                                                  + ", ".join(GROUPS[group]))
+                raise DeckError(name, group, key, unknown_key_reason(group, key))
     for group in REQUIRED_GROUPS:
         if group not in raw:
             raise DeckError(name, group, "", f"group &{group} is missing")
-    return validate(raw, starts, name)
+    try:
+        deck = validate(raw, starts, name)
+    except DeckError as err:
+        raise with_comma_hint(err, commas) from None
+    deck.comma_decimals = commas
+    return deck
+
+
+def _real_comma_decimals(text: str, name: str) -> dict[tuple[str, str], CommaDecimal]:
+    """The decimal commas of real keys (:func:`pydriver.deck_tokens.comma_decimals`).
+
+    On a key of fixed length (a scalar, three values, one per body or joint) a decimal comma
+    adds a value, and the count error that follows names it (:func:`with_comma_hint`).  A
+    list takes any number of values, so there it is refused at once when the value has more
+    than the one number: ``table_t = 0,5, 1,0`` is a decimal comma beside separated values
+    (``table_t = 0,5`` alone stays the two values Fortran reads).
+    """
+    commas = {}
+    for (group, key_name), comma in comma_decimals(text).items():
+        key = lookup(group, key_name)
+        if key is None or key.type != "real":
+            continue
+        if key.shape == "list" and not comma.alone:
+            raise DeckError(name, group, key_name, f"{comma.hint()}; if these are separate values, separate them "
+                                                   "like the others (', ')")
+        commas[(group, key_name)] = comma
+    return commas
 
 
 def validate(raw: dict, starts: dict, name: str) -> Deck:
@@ -356,7 +403,7 @@ def normalize(key: Key, raw, start, n: int, deck: str):
     if offset + len(items) > length or (not start and len(items) != length):
         what = {"vec3": "3 values", "body": f"{length} values (one per body)",
                 "joint": f"{length} values (one per joint)"}[key.shape]
-        fail(f"needs {what}, got {offset + len(items)}")
+        fail(f"needs {what}, got {offset + len(items)}{_count_hint(key, items, length)}")
     base = default_value(key, n)
     out = [None] * length
     if base is not None:                           # a list's default may be shorter than the list
@@ -373,11 +420,33 @@ def normalize(key: Key, raw, start, n: int, deck: str):
     return np.asarray(out, dtype=float if key.type == "real" else object)
 
 
+def _count_hint(key: Key, items, length: int) -> str:
+    """How to fix a per-body or per-joint key whose count is not n_bodies (a deck switched to
+    another n): the start shape resamples, the thesis's joint constants come from &cable, and
+    one value for every body is written ``n*value``."""
+    if key.shape not in ("body", "joint"):
+        return ""
+    got = len(items)
+    if (key.group, key.name) in RESAMPLED_KEYS:
+        if got < length:
+            return (f"; a start shape given for a chain of {got} bodies is placed on these {length} by arc length "
+                    "with &shape resample = .true. (rotorcable keys shape.resample)")
+        return (f"; &shape resample = .true. places a shape of at most n_bodies = {length} joints: give "
+                f"{length} values")
+    if key.group == "springs":
+        return ("; the per-joint constants of &springs hold for one n: &cable ei (with gj, damping_time) gives "
+                "them for any n_bodies (rotorcable keys cable)")
+    first = items[0] if got else None
+    if got > 1 and isinstance(first, (int, float)) and not isinstance(first, bool) and all(v == first for v in items):
+        return f"; for {first:g} at every {key.shape} write {length}*{first:g}"
+    return ""
+
+
 def _real_array(key: Key, a: np.ndarray, n: int, fail) -> np.ndarray:
     """A long real list (numpy's parse, see _fast_tables), checked as a whole."""
     length = array_length(key, n)
     if length is not None and a.size != length:
-        fail(f"needs {length} values, got {a.size}")
+        fail(f"needs {length} values, got {a.size}{_count_hint(key, a, length)}")
     bad = ~np.isfinite(a)
     if np.any(bad):
         fail(f"must be finite, got {a[bad][0]} (value {int(np.argmax(bad)) + 1})")

@@ -456,6 +456,27 @@ def groups_of(name: str) -> list[str]:
     return [g for g, keys in GROUPS.items() if name.lower() in keys]
 
 
+def unknown_key_reason(group: str, name: str) -> str:
+    """Why ``&group name`` is refused and where the key belongs: the group(s) that have it
+    (``t_end`` in ``&chain`` belongs to ``&solver``), else the closest names, else the
+    group's keys."""
+    group, name = group.lower(), name.lower()
+    owners = groups_of(name)
+    if owners:
+        where = " and ".join(", ".join("&" + g for g in owners).rsplit(", ", 1))
+        move = f"move it into &{owners[0]}" if len(owners) == 1 else "move it into the group it is meant for"
+        return (f"unknown key in &{group}: {name} is a key of {where}; {move} "
+                f"(rotorcable keys {owners[0]}.{name})")
+    close = difflib.get_close_matches(name, list(GROUPS.get(group, {})), n=3, cutoff=0.6)
+    if close:
+        return (f"unknown key; did you mean {' or '.join(close)}? &{group} has: " + ", ".join(GROUPS[group]))
+    elsewhere = difflib.get_close_matches(name, [k.name for k in KEYS], n=3, cutoff=0.75)
+    if elsewhere:
+        names = ", ".join(f"&{g} {k}" for k in dict.fromkeys(elsewhere) for g in groups_of(k))
+        return f"unknown key; did you mean {names}? &{group} has: " + ", ".join(GROUPS.get(group, {}))
+    return f"unknown key; &{group} has: " + ", ".join(GROUPS.get(group, {}))
+
+
 def reference_document(name: str = "", acts=None):
     """The deck reference as a :class:`pydriver.document.Document`: the schema as tables, one
     per group (``docs/deck_reference.md``, ``rotorcable keys``).

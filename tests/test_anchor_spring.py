@@ -7,6 +7,8 @@ forces, and its deck keys against bad values."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -24,8 +26,10 @@ def anchored(tmp_path, joint: int, gravity: str = "0.0, 0.0, -9.81", springs: bo
     """The three-body pendulum (inputs/three_body.nml) with an anchor spring at joint point P_j."""
     text = (INPUTS / "three_body.nml").read_text()
     if not springs:
-        start = text.index("&springs")
-        text = text[:start] + text[text.index("/", start) + 1:]
+        # The group up to its own '/' line (the '/' of a comment's "Nmm/rad" is not its end: cut
+        # there, the rest of the group stood between groups, which a deck may not have: issue 37).
+        group = re.search(r"&springs\b.*?\n\s*/", text, re.S)
+        text = text[:group.start()] + text[group.end():]
     text += (f"\n&anchor\n  joint = {joint}\n  point = {', '.join(map(str, POINT))}\n"
              f"  stiffness = {STIFFNESS}\n{extra}/\n&loads\n  gravity = {gravity}\n/\n")
     path = tmp_path / f"anchored_{joint}.nml"

@@ -16,6 +16,7 @@ the optimum must lie within that plus one grid step of the scan's best point.
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 
@@ -228,9 +229,10 @@ def test_flight_damage_optimum_sits_on_the_frequency_edge():
 
 def test_damage_objective_needs_an_sn_curve(tmp_path):
     text = (INPUTS / "uh60_part2_design_flight.nml").read_text()
-    start = text.index("&fatigue")
+    # The group up to its own '/' line (a comment's "docs/model.md" is not its end; issue 37).
+    group = re.search(r"&fatigue\b.*?\n\s*/", text, re.S)
     deck = tmp_path / "no_fatigue.nml"
-    deck.write_text(text[:start] + text[text.index("/", start) + 1:])
+    deck.write_text(text[:group.start()] + text[group.end():])
     with pytest.raises(pydriver.DeckError, match="S-N curve") as err:
         pydriver.run_deck(deck)
     assert (err.value.group, err.value.key) == ("design", "objective")
