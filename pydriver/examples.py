@@ -10,6 +10,7 @@ placed where a deck would go, even one that points nowhere, counts as a file alr
 
 from __future__ import annotations
 
+import difflib
 from datetime import date
 from pathlib import Path
 
@@ -66,6 +67,23 @@ HEADER_REFERENCE = ("Every key: `rotorcable keys` (one group: `rotorcable keys c
                     "! one key: `rotorcable keys t_end`); the output files: `rotorcable outputs`.")
 
 
+def example_name(like: str) -> str:
+    """The example deck ``like`` names: its stem, with or without ``.nml``.
+
+    Raises
+    ------
+    ValueError
+        No example has that name; the message suggests the closest and lists them all.
+    """
+    names = example_names()
+    stem = like[:-4] if like.lower().endswith(".nml") else like
+    if stem in names:
+        return stem
+    close = difflib.get_close_matches(stem, names, n=3, cutoff=0.6)
+    hint = f"; did you mean {' or '.join(close)}?" if close else ";"
+    raise ValueError(f"--like {like}: no such example deck{hint} the examples are: {', '.join(names)}")
+
+
 def init_deck(path, like: str) -> Path:
     """Write a new deck ``path`` that starts as the example ``like``, with a header saying so.
 
@@ -74,12 +92,10 @@ def init_deck(path, like: str) -> Path:
     FileExistsError
         ``path`` exists, or is a link (it is never replaced, nor written through).
     ValueError
-        ``like`` is not an example deck.
+        ``like`` is not an example deck (its name with or without ``.nml``).
     """
     path = Path(path)
-    names = example_names()
-    if like not in names:
-        raise ValueError(f"--like {like}: no such example deck; the examples are: {', '.join(names)}")
+    like = example_name(like)
     if path.exists() or path.is_symlink():
         raise FileExistsError(f"{path} exists; rotorcable init never replaces a file (choose another name)")
     text = (examples_dir() / f"{like}.nml").read_text(encoding="utf-8")

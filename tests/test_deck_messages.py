@@ -16,6 +16,7 @@ import pytest
 
 from pydriver.deckfile import deck_from_text
 from pydriver.errors import DeckError
+from pydriver.examples import example_names, init_deck
 from pydriver.schema import GROUPS, KEYS, groups_of
 
 N = 3
@@ -242,3 +243,29 @@ class TestOtherNumberOfBodies:
         err = refusal(self.switched(2 * N, shape__gamma_deg=f"{2 * N}*0.0", shape__beta_deg=f"{2 * N}*1.0",
                                     chain__diameter=f"{N}*0.01"))
         assert err.key == "diameter" and f"write {2 * N}*0.01" in err.reason
+
+
+class TestInitLike:
+    """``init --like`` takes an example's name with its suffix, and a wrong name gets the closest."""
+
+    def test_the_suffix_is_accepted(self, tmp_path):
+        path = init_deck(tmp_path / "mine.nml", "uh60_part2_modal.nml")
+        text = path.read_text()
+        assert "from the example 'uh60_part2_modal'" in text and "name = 'mine'" in text
+        assert deck_from_text(text, "mine.nml")["case.analysis"] == "modal"
+
+    @pytest.mark.parametrize("typed,closest", [("uh60_part2_modl", "uh60_part2_modal"),
+                                               ("six_link_statc.nml", "six_link_static"),
+                                               ("UH60_part2_hover", "uh60_part2_hover")])
+    def test_a_wrong_name_suggests_the_closest(self, tmp_path, typed, closest):
+        with pytest.raises(ValueError) as exc:
+            init_deck(tmp_path / "mine.nml", typed)
+        message = str(exc.value)
+        assert f"did you mean {closest}" in message
+        assert all(name in message for name in example_names())              # and lists them all
+        assert not (tmp_path / "mine.nml").exists()
+
+    def test_on_the_command_line(self, tmp_path):
+        done = subprocess.run([sys.executable, "-m", "pydriver", "init", "x.nml", "--like", "three_bodys"],
+                              capture_output=True, text=True, cwd=tmp_path)
+        assert done.returncode == 2 and "Traceback" not in done.stderr and "did you mean three_body" in done.stderr

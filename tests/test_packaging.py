@@ -86,7 +86,7 @@ def test_fresh_venv_gives_the_whole_tool(tmp_path):
     n_decks = len(list(INPUTS.glob("*.nml")))                         # every deck of inputs/ ships
     assert f"copied {n_decks} example decks" in run("examples", "ex")
     assert f"kept {n_decks} already there" in run("examples", "ex")  # never overwrites
-    run("init", "mine.nml", "--like", "six_link_static")
+    run("init", "mine.nml", "--like", "six_link_static.nml")         # the name as listed, suffix and all
     header = (work / "mine.nml").read_text().split("\n&", 1)[0]
     assert "a new deck" in header
     # Every command init's header names works in the installed tool and explains keys or outputs.
