@@ -120,7 +120,7 @@ def build_parser() -> argparse.ArgumentParser:
     study = sub.add_parser("study", help="UH-60 studies: figures 5.6/5.12, 5.9, refinement and the design "
                                          "study (fatigue life before and after optimisation)")
     study.add_argument("name", choices=["shapes", "cy-sweep", "refine", "design"],
-                       help="shapes: rest vs hover plots; cy-sweep: frequency against c_y and the "
+                       help="shapes: rest vs hover plots; cy-sweep: frequency against &springs c_beta and the "
                             "flap crossing; refine: first frequency for n = 11, 22, 44, 88")
     study.add_argument("--out", help="output directory (default results/studies/<name>/): new, empty or "
                                      "an earlier output of the same study")

@@ -65,20 +65,20 @@ GLOSSARY: tuple[Term, ...] = (
          "The cycle count of a load history (ASTM E1049): each closed hysteresis loop is one cycle of its "
          "amplitude.",
          r"rainflow"),
-    Term("N deg around",
+    Term("worst point of the jacket at N deg from the body's e1 axis",
          "The point on the jacket's circumference where a joint's fatigue is worst (critical plane), as the "
-         "angle around the cable from the axis e1 of the body after the joint; each joint is counted at "
-         "&fatigue circumferential_points points around.",
-         r"\d+ deg around"),
+         "angle around the cable from the axis e1 of the body after the joint (its first cross-section axis); "
+         "each joint is counted at &fatigue circumferential_points points around.",
+         r"worst point of the jacket|\d+ deg around"),
     Term("DEL (damage-equivalent load)",
          "The constant amplitude that, applied N_eq times, does the same Miner damage as the counted cycles "
          "on an S-N curve of exponent m: DEL = (sum n_i S_a,i^m / N_eq)^(1/m), in the unit of the signal "
          "(DEL FA_x in N, DEL strain in -).",
          r"\bDEL\b"),
-    Term("1/rev-equivalent, 1 Hz-equivalent",
+    Term("repeated once per rotor revolution, once per second (1/rev-, 1 Hz-equivalent)",
          "The equivalent cycle count N_eq of a DEL: one cycle per rotor revolution for a flight run (the DEL "
          "is then an amplitude at the 1/rev frequency), one per second of a dynamic run.",
-         r"1/rev-equivalent|1 Hz-equivalent|equivalent"),
+         r"1/rev-equivalent|1 Hz-equivalent|once per (rotor revolution|second)"),
     Term("n; Richardson extrapolation",
          "n is the number of rigid bodies the cable is cut into.  Run at n, 2n, 4n, each number is "
          "extrapolated to n -> infinity assuming an error ~ (1/n)^p; the observed order p and the error "
@@ -97,8 +97,8 @@ GLOSSARY: tuple[Term, ...] = (
          "gamma_deg and beta_deg in the tables, in degrees.",
          r"γ|gamma|\bbeta\b|beta_deg"),
     Term("&group key",
-         "A key of the deck (a Fortran namelist): group &group, key name; every key is listed in "
-         "docs/deck_reference.md.",
+         "A key of the deck (a Fortran namelist): group &group, key name; the command rotorcable keys GROUP "
+         "lists a group's keys, rotorcable keys KEY explains one.",
          r"&\w+ \w+"),
 )
 

@@ -21,7 +21,7 @@ import re
 
 import numpy as np
 
-from pydriver.output_columns import column_of, unit_of
+from pydriver.output_columns import column_meaning, unit_of
 
 LAYOUT = "rotorcable-netcdf4-1"
 _COMPONENTS = ("x", "y", "z")
@@ -87,17 +87,19 @@ class NetcdfTimeseries:
         f.create_variable("body", ("body",), data=np.arange(1, n_bodies + 1)).attrs["long_name"] = \
             "body number, from clamp A"
         f.create_variable("joint", ("joint",), data=np.arange(1, n_bodies + 1)).attrs["long_name"] = \
-            "joint number (joint j starts body j)"
+            "joint number, from clamp A (a joint starts the body of the same number)"
         f.create_variable("component", ("component",), data=np.array(_COMPONENTS, dtype=object),
-                          dtype=h5py.string_dtype())
+                          dtype=h5py.string_dtype()).attrs["long_name"] = "vector component along the axis x, y or z"
         f.create_variable("bending_axis", ("bending_axis",), data=np.array(_AXES, dtype=object),
-                          dtype=h5py.string_dtype())
+                          dtype=h5py.string_dtype()).attrs["long_name"] = \
+            "the joint's local cross-section axis, x or y, a bending component is about"
         self.vars = {}
         for var, (dims, cells) in self.where.items():
             shape = [f.dimensions[d].size for d in dims]
             v = f.create_variable(var, ("time", *dims), "f8", chunks=(max(1, 16384 // int(np.prod(shape))), *shape))
             first = next(iter(cells))
-            v.attrs.update(units=unit_of("timeseries.h5", first), long_name=_meaning(first))
+            along = tuple(_PLACEHOLDER_OF[d] for d in dims)
+            v.attrs.update(units=unit_of("timeseries.h5", first), long_name=_meaning(first, along))
             self.vars[var] = v
         for c in self.rest:
             v = f.create_variable(c, ("time",), "f8", chunks=(16384,))
@@ -123,9 +125,14 @@ class NetcdfTimeseries:
         self.f.close()
 
 
-def _meaning(name: str) -> str:
-    col = column_of("timeseries.h5", name)
-    return re.sub(r"\s+", " ", col.meaning) if col else name
+#: The placeholder of pydriver/output_columns.py a dimension stands for (its long_name says "each joint").
+_PLACEHOLDER_OF = {"body": "j", "joint": "j", "component": "c", "bending_axis": "a"}
+
+
+def _meaning(name: str, along: tuple = ()) -> str:
+    """The long_name of a variable: its column's meaning, filled in (``(s = A, B)`` and ``joint
+    j`` are the table's placeholders, not a variable's words)."""
+    return re.sub(r"\s+", " ", column_meaning("timeseries.h5", name, along))
 
 
 def is_netcdf_layout(h5) -> bool:

@@ -85,7 +85,7 @@ def format_table(result, language: str = "en") -> str:
     """The equilibrium table in the layout of the thesis's Tables A.3-A.6.
 
     Columns: body, gamma_i [deg], beta_i [deg] (2 decimals), x, y, z [m] (4 decimals), and a
-    caption line with the case and the bending spring c_y.  ``language = 'de'`` gives the
+    caption line with the case and the bending spring c_beta (the thesis's c_y).  ``language = 'de'`` gives the
     thesis's own German form with decimal commas (Körper, γ_i [°], "Tabelle: Ruhelage ...").
     """
     s = result.summary
@@ -105,7 +105,8 @@ def format_table(result, language: str = "en") -> str:
         lines.append(f"Tabelle: {what} {s['case']}, c_y = {cy.replace('.', ',')} Nm/rad")
     else:
         what = "equilibrium in hover" if hover else "static equilibrium"
-        lines.append(f"Table: {what}, {s['case']}, c_y = {cy} Nm/rad")
+        # The deck's name of the bending spring (the German form keeps the thesis's c_y).
+        lines.append(f"Table: {what}, {s['case']}, c_beta = {cy} Nm/rad")
     return "\n".join(lines) + "\n"
 
 

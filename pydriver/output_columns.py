@@ -39,26 +39,27 @@ COLUMNS = [
     Column(TS, "t", "s", "time"),
     Column(TS, "psi_deg", "deg", "rotor angle turned since t = 0 (hub frame runs)"),
     Column(TS, "azimuth_deg", "deg", "blade azimuth, 0 = downstream, in the sense of rotation"),
-    Column(TS, "{c}{j}", "m", "centre of mass of body j (deck frame; hub frame when the rotor turns)"),
-    Column(TS, "tip_{c}", "m", "end point of the last body"),
-    Column(TS + SWEEP, "F{s}_{c}", "N", "force the support (s = A, B) exerts on the chain"),
-    Column(TS + SWEEP, "M{s}_{c}", "Nm", "moment the support (s = A, B) exerts on the chain, about its clamp point"),
-    Column(TS, "gamma{j}_deg", "deg", "thesis angle gamma of body j (wrapped to +-180)"),
-    Column(TS, "beta{j}_deg", "deg", "thesis angle beta of body j (wrapped to +-180)"),
+    Column(TS, "{c}{j}", "m", "centre of mass of body {j}, {c} coordinate (deck frame; hub frame when the rotor turns)"),
+    Column(TS, "tip_{c}", "m", "end point of the last body, {c} coordinate"),
+    Column(TS + SWEEP, "F{s}_{c}", "N", "force support {s} exerts on the chain, {c} component"),
+    Column(TS + SWEEP, "M{s}_{c}", "Nm", "moment support {s} exerts on the chain about its clamp point, {c} component"),
+    Column(TS, "gamma{j}_deg", "deg", "thesis angle gamma of body {j} (wrapped to +-180)"),
+    Column(TS, "beta{j}_deg", "deg", "thesis angle beta of body {j} (wrapped to +-180)"),
     Column(TS, "E_kin_J", "J", "kinetic energy"),
     Column(TS, "E_pot_J", "J", "potential energy (gravity and springs)"),
     Column(TS, "g_max_m", "m", "largest constraint violation of clamp B"),
-    Column(LOADS, "axial{j}_N", "N", "axial force joint j carries (tension positive)"),
-    Column(LOADS, "shear{j}_N", "N", "shear force magnitude at joint j"),
-    Column(LOADS, "bending{j}_Nm", "Nm", "bending moment magnitude at joint j"),
-    Column(LOADS, "torsion{j}_Nm", "Nm", "torsion moment at joint j"),
-    Column(TS, "moment_{a}{j}_Nm", "Nm", "bending moment component about the joint's local a = x, y axis"),
-    Column(LOADS, "curvature{j}_1pm", "1/m", "curvature magnitude at joint j (bending moment / EI)"),
-    Column(TS, "kappa_{a}{j}_1pm", "1/m", "curvature component about the joint's local a = x, y axis"),
-    Column(LOADS, "strain{j}", "-", "largest jacket surface strain at joint j (curvature x radius)"),
-    Column(TS, "{coord}{j}_coord_deg", "deg", "joint coordinate the springs act on, not wrapped: gamma, beta (zy); "
-                                             "cardan_x, cardan_y (xy); and twist (xyz)"),
-    Column(TS, "{coord}{j}_rate_degps", "deg/s", "rate of that joint coordinate"),
+    Column(LOADS, "axial{j}_N", "N", "axial force joint {j} carries (tension positive)"),
+    Column(LOADS, "shear{j}_N", "N", "shear force magnitude at joint {j}"),
+    Column(LOADS, "bending{j}_Nm", "Nm", "bending moment magnitude at joint {j}"),
+    Column(LOADS, "torsion{j}_Nm", "Nm", "torsion moment at joint {j}"),
+    Column(TS, "moment_{a}{j}_Nm", "Nm", "bending moment at joint {j} about the joint's local {a} axis"),
+    Column(LOADS, "curvature{j}_1pm", "1/m", "curvature magnitude at joint {j} (bending moment / EI)"),
+    Column(TS, "kappa_{a}{j}_1pm", "1/m", "curvature at joint {j} about the joint's local {a} axis"),
+    Column(LOADS, "strain{j}", "-", "largest jacket surface strain at joint {j} (curvature x radius)"),
+    Column(TS, "{coord}{j}_coord_deg", "deg", "joint coordinate {coord} of joint {j}, the angle the springs act "
+                                             "on (not wrapped); the coordinates are gamma, beta (zy), cardan_x, "
+                                             "cardan_y (xy) and twist (xyz)"),
+    Column(TS, "{coord}{j}_rate_degps", "deg/s", "rate of joint coordinate {coord} of joint {j}"),
     # -- equilibrium table -----------------------------------------------------------------------
     Column(("table.csv",), "body", "-", "body number, from clamp A"),
     Column(("table.csv",), "gamma_deg", "deg", "thesis angle gamma of the body"),
@@ -76,7 +77,7 @@ COLUMNS = [
     Column(("modes.csv",), "f_undamped_hz", "Hz", "undamped natural frequency"),
     Column(("modes.csv",), "f_damped_hz", "Hz", "damped frequency (0: overdamped)"),
     Column(("modes.csv",), "zeta", "-", "damping ratio"),
-    Column(("modes.csv",), "d{c}{j}", "-", "CM displacement of body j in the mode, largest component 1"),
+    Column(("modes.csv",), "d{c}{j}", "-", "displacement of the centre of mass of body {j} in the mode, {c} component (the largest component is 1)"),
     # -- Campbell ------------------------------------------------------------------------------------
     Column(("campbell.csv", "campbell_crossings.csv"), "rpm", "rpm", "rotor speed"),
     Column(("campbell.csv", "campbell_crossings.csv"), "mode", "-", "tracked mode"),
@@ -115,7 +116,8 @@ COLUMNS = [
     # -- fatigue -----------------------------------------------------------------------------------------
     Column(FAT, "joint", "-", "joint number, from clamp A"),
     Column(FAT, "arc_length_m", "m", "arc length of the joint from clamp A"),
-    Column(FAT, "angle_deg", "deg", "the point around the jacket with the most damage"),
+    Column(FAT, "angle_deg", "deg", "where on the jacket the damage is largest: the angle around the cable, from the "
+                                     "axis e1 of the body after the joint"),
     Column(FAT, "damage_per_hour", "1/h", "Miner damage per flight hour at that point"),
     Column(FAT, "life_hours", "h", "1 / damage per hour (blank: no damage)"),
     Column(FAT, "n_cycles", "-", "rainflow cycles per record (half cycles count 1/2)"),
@@ -235,8 +237,8 @@ _FAT_STAT = re.compile(r"^(axial_N|shear_N|bending_Nm|torsion_Nm|strain)_(min|ma
 
 def _regex(pattern: str) -> re.Pattern:
     out = re.escape(pattern)
-    for ph, rx in _PLACEHOLDER.items():
-        out = out.replace(re.escape(ph), rx)
+    for ph, rx in _PLACEHOLDER.items():           # a named group each: column_meaning fills it in
+        out = out.replace(re.escape(ph), f"(?P<{ph[1:-1]}>{rx})")
     if pattern == "{q}_{s}":
         return _FAT_STAT
     return re.compile(f"^{out}$")
@@ -252,6 +254,33 @@ def column_of(file: str, name: str) -> Column | None:
         if file in col.files and rx.match(name):
             return col
     return None
+
+
+def column_meaning(file: str, name: str, over: tuple = ()) -> str:
+    """The meaning of column ``name`` of ``file`` with its placeholders filled in from the name
+    (``FA_x``: "force support A exerts on the chain, x component"); the name itself if the
+    table has no row for it.
+
+    ``over`` names the placeholders a variable runs along instead (the netCDF variables of
+    :mod:`pydriver.netcdf_layout`: ``j`` for the body or joint dimension, ``c`` for component,
+    ``a`` for bending_axis): "joint {j}" becomes "each joint", and the component is left to its
+    dimension.
+    """
+    for col, rx in _COMPILED:
+        m = rx.match(name) if file in col.files else None
+        if m is not None:
+            break
+    else:
+        return name
+    text = col.meaning
+    if "j" in over:
+        text = re.sub(r"\b(body|joint) \{j\}", r"each \1", text)
+    if "c" in over:
+        text = re.sub(r", \{c\} (?:component|coordinate)", "", text)
+    if "a" in over:
+        text = text.replace("local {a} axis", "local x and y axes")
+    values = m.groupdict() if rx is not _FAT_STAT else {}
+    return re.sub(r"\{(\w+)\}", lambda ph: values.get(ph.group(1)) or ph.group(0), text)
 
 
 def unit_of(file: str, name: str, units: dict | None = None) -> str:

@@ -4,6 +4,7 @@ form): what ran, the reactions with units, frequencies, peaks, warnings, where t
 from __future__ import annotations
 
 import math
+import re
 
 from pydriver.analyses.registry import sections_of
 
@@ -16,6 +17,35 @@ def _num(x: float, digits: int = 5) -> str:
         decimals = max(0, digits - 1 - int(math.floor(math.log10(abs(x)))))
         return f"{x:.{decimals}f}"
     return f"{x:.{digits - 1}e}"
+
+
+#: Refined quantities (summary['refinement'], refinement.csv) by their stored names, and the
+#: words a reader is shown for them: the names stay (refinement.csv and readers key on them).
+_QUANTITY_WORDS = (
+    (re.compile(r"fd(\d+) \[Hz\]"), r"damped frequency of mode \1 [Hz]"),
+    (re.compile(r"f(\d+) \[Hz\]"), r"undamped frequency of mode \1 [Hz]"),
+    (re.compile(r"peak bending \[Nm\]"), "largest bending moment [Nm]"),
+    (re.compile(r"peak torsion \[Nm\]"), "largest torsion moment [Nm]"),
+    (re.compile(r"peak axial \[N\]"), "largest axial force [N]"),
+    (re.compile(r"peak strain \[-\]"), "largest jacket strain [-]"),
+    (re.compile(r"(F[AB]_[xyz]) max \|\.\|"), r"largest |\1| [N]"),
+    (re.compile(r"(M[AB]_[xyz]) max \|\.\|"), r"largest |\1| [Nm]"),
+    (re.compile(r"DEL strain, worst joint"), "damage-equivalent strain amplitude, worst joint [-]"),
+    (re.compile(r"DEL bending, worst joint"), "damage-equivalent bending amplitude, worst joint [Nm]"),
+    (re.compile(r"DEL (F[AB]_[xyz])"), r"damage-equivalent amplitude of \1 [N]"),
+    (re.compile(r"DEL (M[AB]_[xyz])"), r"damage-equivalent amplitude of \1 [Nm]"),
+    (re.compile(r"fatigue life \[h\], shortest"), "shortest fatigue life [h]"),
+    (re.compile(r"decay f_damped \[Hz\]"), "damped frequency of the decay test [Hz]"),
+)
+
+
+def quantity_label(name: str) -> str:
+    """The words shown for a refined quantity's stored name (``'fd1 [Hz]'``: "damped frequency
+    of mode 1 [Hz]"); a name without such words is shown as it is."""
+    for pattern, words in _QUANTITY_WORDS:
+        if pattern.fullmatch(name):
+            return pattern.sub(words, name)
+    return name
 
 
 def _row(label: str, values, width: int = 12) -> str:
@@ -104,9 +134,10 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
             r = q[name]
             order = (f"order {r['observed_order']:.2f}" if r.get("order_observed", True)
                      else f"order {r['observed_order']:g} assumed")
-            lines.append(f"    {name:<26}{_num(r['extrapolated'])} +- {_num(r['error_estimate'], 2)} ({order})")
+            lines.append(f"    {quantity_label(name):<40}{_num(r['extrapolated'])} +- {_num(r['error_estimate'], 2)} "
+                         f"({order})")
         if len(q) > len(shown):
-            lines.append(f"    ... {len(q) - len(shown)} more (clamp loads, DELs) in refinement.csv")
+            lines.append(f"    ... {len(q) - len(shown)} more (clamp loads, damage-equivalent loads) in refinement.csv")
     lines += _resonance_lines(s.get("resonance"))
     if "shooting" in s:
         sh = s["shooting"]
@@ -133,7 +164,6 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
 def _collapse_series(names: list[str]) -> list[str]:
     """File names with numbered series shown as their first and last (``cable_0000.vtu ...
     cable_0359.vtu (360 files)``): a ParaView export writes hundreds."""
-    import re
     out, series = [], {}
     for name in names:
         m = re.fullmatch(r"(.*_)(\d{4})(\.\w+)", name)

@@ -154,7 +154,7 @@ def _cy_sweep(inputs: Path, tmp: Path) -> str:
         {"f_flap_hz": 4.33, "c_y_Nm_per_rad": c_cross,
          "thesis_reading_Nm_per_rad": 8.0}, indent=2) + "\n")
     plot_frequency_vs_cy(res, tmp / "frequency_vs_cy.png", 4.33, c_cross)
-    return f"first frequency meets 4.33 Hz at c_y = {c_cross:.3f} Nm/rad"
+    return f"first frequency meets 4.33 Hz at &springs c_beta = {c_cross:.3f} Nm/rad (the thesis's c_y)"
 
 
 def _refine(inputs: Path, tmp: Path) -> str:

@@ -3,6 +3,8 @@ file, read back by load_results, chosen automatically above the CSV size limit."
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 import pydriver
@@ -52,3 +54,17 @@ def test_xarray_opens_the_hdf5_time_series(tmp_path):
         assert np.array_equal(ds["bending"].sel(joint=2).values, ts["bending2_Nm"])
         assert np.array_equal(ds["moment"].sel(joint=2, bending_axis="y").values, ts["moment_y2_Nm"])
         assert np.array_equal(ds["E_kin_J"].values, ts["E_kin_J"])
+        # Issue 37: every long_name in words, the table's placeholders filled in by the variable.
+        names = {v: ds[v].attrs.get("long_name", "") for v in ds.variables}
+        for var, text in names.items():
+            assert text and not re.search(r"[{}]|\(s = |\b(joint|body) j\b|a = x, y", text), (var, text)
+        assert names["F_B"] == "force support B exerts on the chain"
+        assert names["M_A"] == "moment support A exerts on the chain about its clamp point"
+        assert names["bending"] == "bending moment magnitude at each joint"
+        assert names["moment"] == "bending moment at each joint about the joint's local x and y axes"
+        assert names["cm"].startswith("centre of mass of each body (")
+        coords = [re.fullmatch(r"(\D+)(\d+)_coord_deg", v) for v in names]
+        coords = [m for m in coords if m]
+        assert coords
+        for m in coords:
+            assert names[m.group(0)].startswith(f"joint coordinate {m.group(1)} of joint {m.group(2)},"), m.group(0)

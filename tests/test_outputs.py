@@ -28,7 +28,7 @@ def test_static_outputs(tmp_path):
     txt = (tmp_path / "table.txt").read_text().splitlines()
     assert txt[0].split()[0] == "body" and len(txt[1].split()) == 6          # English by default
     assert txt[3].split() == ["3", "90.00", "90.00", "0.2000", "0.1000", "-0.2000"]
-    assert txt[-1].startswith("Table: static equilibrium") and "c_y" in txt[-1]
+    assert txt[-1].startswith("Table: static equilibrium") and "c_beta = " in txt[-1]   # the deck's key
     assert [p.name for p in tmp_path.glob(".*")] == [".rotorcable-run.json"]    # no temporaries left
 
 

@@ -130,7 +130,9 @@ def flight_report(tmp_path_factory):
 def test_terminal_summary_is_short_and_has_units(flight_report):
     text, out = flight_report
     assert "F_A [N]" in text and "M_B [Nm]" in text
-    assert re.search(r"peak bending \[Nm\]\s+\d+\.\d+ \+- ", text)          # a value with its error bar
+    assert re.search(r"largest bending moment \[Nm\]\s+\d+\.\d+ \+- ", text)   # a value with its error bar
+    # Issue 37: the words of the field, not the stored names (fd1, peak ..., 0 deg around).
+    assert "damped frequency of mode 1 [Hz]" in text and not re.search(r"\bfd\d|deg around", text)
     assert "fatigue hotspot 1" in text and str(out) in text
     assert not re.search(r"\d\.\d{12,}", text)                              # no 17-digit dumps
 
@@ -157,9 +159,14 @@ def test_report_explains_itself(flight_report):
     _, out = flight_report
     page = (out / "report.html").read_text()
     glossary = page[page.index("<h2 id='glossary'>"):]
-    for used in ("MB_z max |.|", "DEL FA_x", "0 deg around", "1/rev-equivalent"):
+    for used in ("MB_z max |.|", "DEL FA_x", "worst point of the jacket at 0 deg from the body",
+                 "repeated once per rotor revolution"):
         assert used in page
-    for term in ("max |.|", "DEL (damage-equivalent load)", "N deg around", "1/rev-equivalent", "k/rev (1/rev", "f1, f2"):
+    # Issue 37: the hotspots and the DEL are said in words, not as "0 deg around", "1/rev-equivalent".
+    body = page[:page.index("<h2 id='glossary'>")]
+    assert "deg around" not in body and "-equivalent" not in body.replace("damage-equivalent", "")
+    for term in ("max |.|", "DEL (damage-equivalent load)", "worst point of the jacket at N deg",
+                 "repeated once per rotor revolution", "k/rev (1/rev", "f1, f2"):
         assert f"<dt>{term}" in glossary, term
     # Every numeric cell is a no-wrap cell: "8.9937e-" / "04" was split over two lines.
     results = page[:page.index("<h2>Inputs</h2>")]                  # the deck's values are lists, as typed
@@ -211,3 +218,18 @@ def test_a_life_limit_needs_fatigue(tmp_path):
     deck.write_text((INPUTS / "six_link_static.nml").read_text() + "\n&limits\n  fatigue_life_hours = 100\n/\n")
     with pytest.raises(pydriver.DeckError, match="needs &fatigue"):
         pydriver.run_deck(deck)
+
+
+@pytest.mark.parametrize("name,words", [
+    ("fd1 [Hz]", "damped frequency of mode 1 [Hz]"), ("f12 [Hz]", "undamped frequency of mode 12 [Hz]"),
+    ("peak strain [-]", "largest jacket strain [-]"), ("peak axial [N]", "largest axial force [N]"),
+    ("FA_x max |.|", "largest |FA_x| [N]"), ("MB_z max |.|", "largest |MB_z| [Nm]"),
+    ("DEL strain, worst joint", "damage-equivalent strain amplitude, worst joint [-]"),
+    ("DEL bending, worst joint", "damage-equivalent bending amplitude, worst joint [Nm]"),
+    ("DEL FB_y", "damage-equivalent amplitude of FB_y [N]"), ("fatigue life [h], shortest", "shortest fatigue life [h]"),
+    ("F_A x [N]", "F_A x [N]"), ("tip z [m]", "tip z [m]")])
+def test_refined_quantities_in_words(name, words):
+    """Issue 37: the summary names a refined quantity in words (the stored names stay in
+    refinement.csv and summary.json, which readers key on)."""
+    from pydriver.report_text import quantity_label
+    assert quantity_label(name) == words

@@ -345,7 +345,7 @@ def test_the_largest_point_count_runs_in_bounded_memory():
         ts[name] = zero
     summary, _ = fatigue_of_run(model, ts, periodic=True)
     top = summary["hotspots"][0]
-    assert top["joint"] == 2 and "90 deg around" in top["quantity"]
+    assert top["joint"] == 2 and "at 90 deg from the body's e1 axis" in top["quantity"]
     assert top["damage_per_hour"] == pytest.approx(300.0 * 60.0 * (0.01 / 1.0e-2) ** 5 / 1.0e6, rel=1e-12)
 
 

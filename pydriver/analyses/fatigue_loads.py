@@ -103,6 +103,18 @@ def _out_of_range(model, reason: str):
                     "(&fatigue sn_quantity)")
 
 
+#: The deck's &fatigue sn_quantity in the words of a reader.
+_WORDS = {"strain": "jacket strain", "bending": "bending moment"}
+
+
+def hotspot_text(sn_quantity: str, joint: int, arc_length_m: float, angle_deg: float) -> str:
+    """What a hotspot is, in words: the quantity, the joint, how far along the cable and where on
+    the jacket (the angle around the cable from the axis e1 of the body after the joint: the
+    critical point of the module doc).  Shown in the summary, report.html and the limits."""
+    return (f"{_WORDS.get(sn_quantity, sn_quantity)} at joint {joint} ({arc_length_m:.3f} m from clamp A), "
+            f"worst point of the jacket at {angle_deg:.0f} deg from the body's e1 axis")
+
+
 def fatigue_of_run(model, ts: dict, periodic: bool) -> tuple[dict, dict]:
     """(summary['fatigue'], fatigue.csv columns) of a run's time series."""
     deck = model.deck
@@ -126,8 +138,7 @@ def fatigue_of_run(model, ts: dict, periodic: bool) -> tuple[dict, dict]:
         rows.append(row)
     ranked = sorted(rows, key=lambda r: r["damage_per_hour"], reverse=True)
     hot = [{"rank": i + 1, "joint": r["joint"], "arc_length_m": r["arc_length_m"],
-            "quantity": f"{f['sn_quantity']} at joint {r['joint']} ({r['arc_length_m']:.3f} m), "
-                        f"{r['angle_deg']:.0f} deg around",
+            "quantity": hotspot_text(f["sn_quantity"], r["joint"], r["arc_length_m"], r["angle_deg"]),
             "damage_per_hour": r["damage_per_hour"], "life_hours": r["life_hours"],
             "del_amplitude": r["del_amplitude"]} for i, r in enumerate(ranked[:int(f["hotspots"])])]
     clamp_loads = []
@@ -138,10 +149,12 @@ def fatigue_of_run(model, ts: dict, periodic: bool) -> tuple[dict, dict]:
                                                                                  record["n_equivalent"]),
                             **fatigue.envelope(ts[name])})
     ref = f"{sn.reference_amplitude:g}" + (" Nm" if unit == "Nm" else "")
+    once = "once per rotor revolution" if record["equivalent"] == "1/rev" else "once per second"
     summary = {"description": f"Miner damage on N = {sn.reference_cycles:g} (S_a/{ref})^-{sn.exponent:g} of the "
-                              f"{f['sn_quantity']} at "
-                              f"{int(f['circumferential_points'])} points around each joint, rainflow over "
-                              f"{record['record']}; DEL amplitudes are {record['equivalent']}-equivalent",
+                              f"{_WORDS[f['sn_quantity']]} at "
+                              f"{int(f['circumferential_points'])} points around the jacket of each joint, rainflow "
+                              f"over {record['record']}; a damage-equivalent load (DEL) is the amplitude that, "
+                              f"repeated {once}, does the same damage",
                "sn_quantity": f["sn_quantity"], "unit": unit, "equivalent": record["equivalent"],
                "hotspots": hot, "clamp_loads": clamp_loads}
     columns = {key: [r[key] for r in rows] for key in rows[0]}
