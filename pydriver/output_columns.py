@@ -178,7 +178,8 @@ COLUMNS = [
     Column(SWEEP, "solver_{counter}", "-", "solver statistics (steps, residuals, ...)"),
     Column(SWEEP, "error", "-", "the error of a failed run"),
     # -- studies (rotorcable study NAME; pydriver/study.py, pydriver/design_study.py) -------------------
-    Column(("frequency_vs_cy.csv",), "springs.c_beta", "Nm/rad",
+    # The column's name is kept from before the units (an output column is never renamed).
+    Column(("frequency_vs_cy.csv",), "c_y_Nm_per_rad", "Nm/rad",
            "the bending spring of every joint, &springs c_beta (the thesis's c_y), of uh60_part2_modal.nml"),
     Column(("frequency_vs_cy.csv",), "f_undamped_hz", "Hz", "first undamped natural frequency"),
     Column(("frequency_vs_cy.csv",), "f_damped_hz", "Hz", "first damped frequency"),

@@ -144,7 +144,7 @@ def _cy_sweep(inputs: Path, tmp: Path) -> str:
     res = frequency_vs_cy(deck, c)
     c_cross = cy_at_frequency(deck, 4.33, 0.5, 5.0)
     # The deck's word for c_y, each with its unit (pydriver/output_columns.py, as every CSV of a run).
-    rows = [",".join(header("frequency_vs_cy.csv", ["springs.c_beta", "f_undamped_hz", "f_damped_hz", "zeta"]))]
+    rows = [",".join(header("frequency_vs_cy.csv", ["c_y_Nm_per_rad", "f_undamped_hz", "f_damped_hz", "zeta"]))]
     # repr(float(x)): the shortest text that reads back exactly (repr of a numpy 2 scalar
     # is "np.float64(1.0)", which no CSV reader takes).
     rows += [",".join(repr(float(x)) for x in row) for row in
