@@ -122,7 +122,7 @@ class TestOutputs:
             assert keys and all(column_of(file, k) is not None for k in keys), (file, keys)
         with (tmp_path / "cy-sweep" / "frequency_vs_cy.csv").open() as fh:
             header = next(csv.reader(fh))
-        assert header == ["springs.c_beta [Nm/rad]", "f_undamped_hz [Hz]", "f_damped_hz [Hz]", "zeta [-]"]
+        assert header == ["c_y_Nm_per_rad [Nm/rad]", "f_undamped_hz [Hz]", "f_damped_hz [Hz]", "zeta [-]"]
         assert all(column_of("frequency_vs_cy.csv", bare_name(c)) is not None for c in header)
 
 
