@@ -360,10 +360,10 @@ def test_a_denormal_rotor_speed_is_a_deck_error():
 
 
 def test_a_zero_rotor_speed_reaching_the_flight_run_is_a_deck_error():
-    """Should a zero speed get past the schema (here set in the built model's description), the
-    flight run's period is a DeckError naming the speed key, not a ZeroDivisionError."""
+    """Should a zero speed get past the schema (here set in the built model, where the flight reads
+    it), the flight run's period is a DeckError naming the speed key, not a ZeroDivisionError."""
     model = flight_variant({})
-    model.description["rotor"]["speed"]["omega"] = 4.9e-324 * np.pi / 30.0   # = 0.0 in floats
+    model.core.update("rotor.omega", 4.9e-324 * np.pi / 30.0)   # = 0.0 in floats
     with pytest.raises(DeckError) as err:
         flight_analysis(model)
     assert (err.value.group, err.value.key) == ("rotor", "rpm") and "period" in str(err.value)
