@@ -226,4 +226,7 @@
   slider.value = frame;
   if (hash.get("colour") === "damage" && scales.damage) colour.value = "damage";
   resize(); draw();
+  // It plays by itself (issue 37), unless the link chose a frame or the reader asked for less motion.
+  const still = window.matchMedia && window.matchMedia("(prefers-reduced-motion: reduce)").matches;
+  if (!hash.has("frame") && !still && F > 1) play.click();
 })();

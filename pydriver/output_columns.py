@@ -43,6 +43,10 @@ COLUMNS = [
     Column(TS, "tip_{c}", "m", "end point of the last body, {c} coordinate"),
     Column(TS + SWEEP, "F{s}_{c}", "N", "force support {s} exerts on the chain, {c} component"),
     Column(TS + SWEEP, "M{s}_{c}", "Nm", "moment support {s} exerts on the chain about its clamp point, {c} component"),
+    Column(TS, "F{s}_on_support_{c}", "N",
+           "force the cable puts on support {s} (what the clamp carries: -F{s}_{c}), {c} component"),
+    Column(TS, "M{s}_on_support_{c}", "Nm",
+           "moment the cable puts on support {s} about its clamp point (-M{s}_{c}), {c} component"),
     Column(TS, "gamma{j}_deg", "deg", "thesis angle gamma of body {j} (wrapped to +-180)"),
     Column(TS, "beta{j}_deg", "deg", "thesis angle beta of body {j} (wrapped to +-180)"),
     Column(TS, "E_kin_J", "J", "kinetic energy"),
@@ -372,7 +376,8 @@ def outputs_document(file: str = ""):
         "`timeseries.h5` (large runs, or `&solver output_format = 'hdf5'`) is netCDF4: "
         "`xarray.open_dataset(path, engine='h5netcdf')` opens it with dimensions time, body, joint, "
         "component and bending_axis; the columns below are grouped into variables `cm`, `F_A`, `M_A`, `F_B`, "
-        "`M_B`, `tip`, `gamma`, `beta`, `axial`, `shear`, `bending`, `torsion`, `curvature`, `strain`, "
+        "`M_B` (and the loads on the supports `F_A_on_support` ... `M_B_on_support`), `tip`, `gamma`, `beta`, "
+        "`axial`, `shear`, `bending`, `torsion`, `curvature`, `strain`, "
         "`moment`, `kappa` (the rest keep their names), each with `units` and `long_name` attributes "
         "(`pydriver/netcdf_layout.py`).  "
         "A blank cell is a value that does not exist (a life without damage, a crossing missing at one "

@@ -276,16 +276,18 @@ def _to_scale(ax, points: np.ndarray, margin: float = 0.05):
     ax.set_xlim(mid[0] - span[0] / 2, mid[0] + span[0] / 2)
     ax.set_ylim(mid[1] - span[1] / 2, mid[1] + span[1] / 2)
     ax.set_zlim(mid[2] - span[2] / 2, mid[2] + span[2] / 2)
-    ax.set_box_aspect(span / np.max(span), zoom=0.8)       # zoom: room for the axis labels
+    ax.set_box_aspect(span / np.max(span), zoom=0.95)      # zoom: room for the axis labels
 
 
 def _shape_axes(fig, tables: dict, clamped_b: bool = True):
     """3D view (to scale) and two side views (y-z, x-y) of the cable through its bodies' end
     points, one line per label; clamp A (square) and clamp B (triangle) marked; round-off
     drawn as zero."""
-    grid = fig.add_gridspec(1, 3, width_ratios=[1.25, 1, 1], wspace=0.35, left=0.03, right=0.86, bottom=0.12,
-                            top=0.88)
-    ax = fig.add_subplot(grid[0], projection="3d")
+    # The 3-D view takes the left half over the figure's height (issue 37: one of three panels in a
+    # row, it had been too small to read); the two side views are stacked on the right.
+    grid = fig.add_gridspec(2, 2, width_ratios=[1.35, 1], wspace=0.3, hspace=0.35, left=0.02, right=0.84,
+                            bottom=0.08, top=0.92)
+    ax = fig.add_subplot(grid[:, 0], projection="3d")
     polylines = dict(zip(tables, _snap([_polyline(t) for t in tables.values()])))
     for label, p in polylines.items():
         line, = ax.plot(p[:, 0], p[:, 1], p[:, 2], "o-", ms=2.5, label=label)
@@ -302,7 +304,7 @@ def _shape_axes(fig, tables: dict, clamped_b: bool = True):
                                            prune="lower" if axis is ax.yaxis else None))
     ax.tick_params(labelsize=7)
     for k, (a, b) in enumerate(((1, 2), (0, 1))):
-        ax2 = fig.add_subplot(grid[k + 1])
+        ax2 = fig.add_subplot(grid[k, 1])
         for label, p in polylines.items():
             line, = ax2.plot(p[:, a], p[:, b], "o-", ms=2.5, label=label)
             ax2.plot(p[0, a], p[0, b], "s", color=line.get_color(), ms=7)
@@ -371,7 +373,7 @@ def plot_flight(result, out: Path):
     fig.suptitle(f"{s['case']}: last revolution ({s['revolutions']} to periodic)")
     yield _save(fig, out, "loads_vs_azimuth.png")
     joints = result.extra["shape_joints"]                       # (3, n + 1, samples)
-    fig = plt.figure(figsize=(15, 5))
+    fig = plt.figure(figsize=(14, 9))
     tables = {}
     for target in np.arange(0, 360, 45):
         k = int(np.argmin(np.abs(((az - target) + 180) % 360 - 180)))
@@ -413,6 +415,40 @@ def _campbell_band(values):
     return (min(values), max(values)) if len(values) == 2 else None
 
 
+def plot_frequencies(s: dict, out: Path):
+    """frequencies.png: the modes a reader needs (issue 37: it had shown 27 "modes" up to 1.7 kHz):
+    with an operating speed, those below the highest rotor harmonic considered plus one, against
+    the k/rev lines at that speed; without one, the lowest 12.  Undamped and damped, both labelled."""
+    plt = _plt()
+    fu = np.asarray(s["frequencies_hz"], float)
+    fd = np.asarray(s["damped_frequencies_hz"], float)
+    block = s.get("resonance") or {}
+    speeds = [r for r in block.get("operating_rpm", []) if r > 0.0]
+    if speeds:
+        top = (block["harmonics"] + 1) * max(speeds) / 60.0
+        shown = max(1, int(np.count_nonzero(fu <= top)))
+    else:
+        shown = min(12, fu.size)
+    k = np.arange(1, shown + 1)
+    fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
+    ax.plot(k, fu[:shown], "o", label="undamped")
+    ax.plot(k, np.where(fd[:shown] > 0, fd[:shown], np.nan), "x", ms=8, label="damped (judged for resonance)")
+    if speeds:
+        for h in range(1, block["harmonics"] + 1):
+            for r in speeds:
+                ax.axhline(h * r / 60.0, color="0.6", lw=0.7, ls="--", zorder=0)
+            ax.text(shown + 0.35, h * speeds[0] / 60.0, f"{h}/rev", fontsize=7, va="center", color="0.35")
+        ax.set_xlim(0.5, shown + 1.2)
+    ax.set_ylim(0.0, 1.08 * max(float(np.max(fu[:shown])), (block.get("harmonics", 0) + 0.5) * max(speeds or [0]) / 60.0))
+    ax.set_xlabel("mode [-]"); ax.set_ylabel("f [Hz]"); ax.grid(True, alpha=0.4)
+    from matplotlib.ticker import MaxNLocator
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    ax.legend(fontsize=8, loc="upper left")
+    where = f", against k/rev at {', '.join(f'{r:g}' for r in speeds)} rpm" if speeds else ""
+    fig.suptitle(f"{s['case']}: natural frequencies{where}")
+    yield _save(fig, out, "frequencies.png")
+
+
 def plot_campbell(result, out: Path):
     """Campbell diagram: tracked modes against rotor speed, the k/rev lines, the lead-lag band,
     the operating range and the crossings in it."""
@@ -423,7 +459,12 @@ def plot_campbell(result, out: Path):
     fig, ax = plt.subplots(figsize=(9, 6), constrained_layout=True)
     op = _campbell_band(s["operating_rpm"])
     if op is not None:
-        ax.axvspan(*op, color="0.93", zorder=0, label="operating range")
+        # A band along the speed axis and its edges (issue 37: shaded over the whole height, an
+        # operating range as wide as the diagram had greyed the whole plot).
+        ax.axvspan(*op, ymin=0.975, ymax=1.0, color="tab:green", alpha=0.6, zorder=3, label="operating range")
+        for edge in op:
+            if rpm[0] < edge < rpm[-1]:
+                ax.axvline(edge, color="tab:green", lw=1.0, ls=":", zorder=1)
     band = _campbell_band(s["lag_band_hz"])
     if band is not None:
         ax.axhspan(*band, color="tab:orange", alpha=0.2, zorder=0, label="lead-lag band")
@@ -472,7 +513,7 @@ def _plots(result, out: Path):
     plt = _plt()
     s = result.summary
     if result.table is not None:
-        fig = plt.figure(figsize=(15, 5))
+        fig = plt.figure(figsize=(14, 9))
         _shape_axes(fig, {s["case"]: _with_tip(result)}, clamped_b=s["n_constraints"] > 0)
         fig.suptitle(f"{s['case']}: the cable through its bodies' end points")
         yield _save(fig, out, "shape.png")
@@ -489,9 +530,9 @@ def _plots(result, out: Path):
     if result.timeseries is not None:
         ts = result.timeseries
         fig, ax = plt.subplots(2, 1, figsize=(8, 6), sharex=True, constrained_layout=True)
-        for name in [n for n in ts if n[:2] in ("FA", "FB")]:
+        for name in [n for n in ts if n[:2] in ("FA", "FB") and len(n) == 4]:          # FA_x ...: the reactions
             ax[0].plot(ts["t"], ts[name], label=name)
-        for name in [n for n in ts if n[:2] in ("MA", "MB")]:
+        for name in [n for n in ts if n[:2] in ("MA", "MB") and len(n) == 4]:
             ax[1].plot(ts["t"], ts[name], label=name)
         ax[0].set_ylabel("force [N]"); ax[1].set_ylabel("moment [Nm]"); ax[1].set_xlabel("t [s]")
         for a in ax:
@@ -521,13 +562,7 @@ def _plots(result, out: Path):
         fig.suptitle(f"{s['case']}: decay test (thesis Figure 5.8)")
         yield _save(fig, out, "decay.png")
     if "frequencies_hz" in s:
-        fig, ax = plt.subplots(figsize=(7, 4))
-        k = range(1, len(s["frequencies_hz"]) + 1)
-        ax.semilogy(k, s["frequencies_hz"], "o", label="undamped")
-        ax.semilogy(k, [f if f > 0 else float("nan") for f in s["damped_frequencies_hz"]], "x", label="damped")
-        ax.set_xlabel("mode [-]"); ax.set_ylabel("f [Hz]"); ax.grid(True); ax.legend()
-        fig.suptitle(f"{s['case']}: natural frequencies")
-        yield _save(fig, out, "frequencies.png")
+        yield from plot_frequencies(s, out)
 
 
 def _cm_table(table: dict, shift=None) -> dict:
@@ -559,7 +594,7 @@ def plot_flagged_modes(result, out: Path, most: int = 3):
         n = len(rest["x_m"])
         d = np.array([[modes[f"d{c}{j + 1}"][i] for c in "xyz"] for j in range(n)], float)
         row = next(r for r in block["flagged"] if r["mode"] == mode)
-        fig = plt.figure(figsize=(15, 5))
+        fig = plt.figure(figsize=(14, 9))
         _shape_axes(fig, {"equilibrium": rest, f"mode {mode} (scaled)": _cm_table(table, 0.1 * extent * d)},
                     clamped_b=result.summary["n_constraints"] > 0)
         fig.suptitle(f"{result.summary['case']}: mode {mode}, {row['frequency_hz']:.2f} Hz, "
@@ -571,7 +606,7 @@ def plot_flagged_modes(result, out: Path, most: int = 3):
 def plot_shapes(tables: dict, path: Path, title: str):
     """Rest vs hover (or any set of) shapes in 3D and two side views, to ``path``."""
     plt = _plt()
-    fig = plt.figure(figsize=(15, 5))
+    fig = plt.figure(figsize=(14, 9))
     _shape_axes(fig, tables)
     fig.suptitle(title)
     _save_replace(fig, path)

@@ -15,7 +15,41 @@ shortest``): a stored result reads back unchanged (:mod:`pydriver.stored_results
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
+
+
+#: Quantities by their stored names (summary['refinement'], refinement.csv, summary['headline']),
+#: and the words a reader is shown for them: the names stay (refinement.csv and readers key on
+#: them).
+_QUANTITY_WORDS = (
+    (re.compile(r"fd(\d+) \[Hz\]"), r"damped frequency of mode \1 [Hz]"),
+    (re.compile(r"f(\d+) \[Hz\]"), r"undamped frequency of mode \1 [Hz]"),
+    (re.compile(r"peak bending \[Nm\]"), "largest bending moment [Nm]"),
+    (re.compile(r"peak torsion \[Nm\]"), "largest torsion moment [Nm]"),
+    (re.compile(r"peak axial \[N\]"), "largest axial force [N]"),
+    (re.compile(r"peak strain \[-\]"), "largest jacket strain [-]"),
+    (re.compile(r"(F[AB]_[xyz]) max \|\.\|"), r"largest |\1| [N]"),
+    (re.compile(r"(M[AB]_[xyz]) max \|\.\|"), r"largest |\1| [Nm]"),
+    (re.compile(r"DEL strain, worst joint"), "damage-equivalent strain amplitude, worst joint [-]"),
+    (re.compile(r"DEL bending, worst joint"), "damage-equivalent bending amplitude, worst joint [Nm]"),
+    (re.compile(r"DEL (F[AB]_[xyz])"), r"damage-equivalent amplitude of \1 [N]"),
+    (re.compile(r"DEL (M[AB]_[xyz])"), r"damage-equivalent amplitude of \1 [Nm]"),
+    (re.compile(r"fatigue life \[h\], shortest"), "shortest fatigue life [h]"),
+    (re.compile(r"decay f_damped \[Hz\]"), "damped frequency of the decay test [Hz]"),
+    (re.compile(r"F_([AB]) ([xyz]) \[N\]"), r"force of support \1 on the cable, \2 [N]"),
+    (re.compile(r"M_([AB]) ([xyz]) \[Nm\]"), r"moment of support \1 on the cable, \2 [Nm]"),
+    (re.compile(r"tip ([xyz]) \[m\]"), r"free tip, \1 [m]"),
+)
+
+
+def label_of(name: str) -> str:
+    """The words shown for a refined quantity's stored name (``'fd1 [Hz]'``: "damped frequency
+    of mode 1 [Hz]"); a name without such words is shown as it is."""
+    for pattern, words in _QUANTITY_WORDS:
+        if pattern.fullmatch(name):
+            return pattern.sub(words, name)
+    return name
 
 
 @dataclass(frozen=True)
@@ -23,16 +57,18 @@ class Quantity:
     """One reported quantity."""
 
     name: str                 #: its key in summary['refinement']['quantities'] and refinement.csv
-    label: str                #: in words, for a reader
     unit: str                 #: SI unit ('-': dimensionless)
     nonnegative: bool = True  #: cannot be negative (a frequency, a peak, a life): extrapolations are held to it
     headline: bool = False    #: one of the numbers a designer reads first (:func:`headlines`)
 
+    @property
+    def label(self) -> str:
+        """The quantity in words, for a reader (:func:`label_of`)."""
+        return label_of(self.name)
+
 
 def _frequency(i: int, damped: bool) -> Quantity:
-    kind = "damped" if damped else "undamped"
-    return Quantity(f"{'fd' if damped else 'f'}{i} [Hz]", f"mode {i}, {kind} frequency", "Hz",
-                    headline=damped and i == 1)
+    return Quantity(f"{'fd' if damped else 'f'}{i} [Hz]", "Hz", headline=damped and i == 1)
 
 
 def quantities_of(summary: dict) -> dict[str, tuple[Quantity, float]]:
@@ -57,39 +93,30 @@ def quantities_of(summary: dict) -> dict[str, tuple[Quantity, float]]:
         for support, wrench in summary.get("reactions", {}).items():
             for kind, unit in (("F", "N"), ("M", "Nm")):
                 for comp, value in zip("xyz", wrench[kind]):
-                    put(Quantity(f"{kind}_{support} {comp} [{unit}]",
-                                 f"{'force' if kind == 'F' else 'moment'} of support {support} on the cable, {comp}",
-                                 unit, nonnegative=False, headline=True), value)
+                    put(Quantity(f"{kind}_{support} {comp} [{unit}]", unit, nonnegative=False, headline=True), value)
     for comp, value in zip("xyz", summary.get("tip_m", ()) if not summary.get("n_constraints") else ()):
-        put(Quantity(f"tip {comp} [m]", f"free tip, {comp}", "m", nonnegative=False), value)
+        put(Quantity(f"tip {comp} [m]", "m", nonnegative=False), value)
     peaks = summary.get("peaks", {})
-    for qty, unit, words in (("bending", "Nm", "largest bending moment"), ("torsion", "Nm", "largest torsional moment"),
-                             ("axial", "N", "largest axial force"), ("strain", "-", "largest jacket strain")):
+    for qty, unit in (("bending", "Nm"), ("torsion", "Nm"), ("axial", "N"), ("strain", "-")):
         if qty in peaks:
-            put(Quantity(f"peak {qty} [{unit}]", words, unit, headline=qty in ("bending", "strain")),
-                peaks[qty]["max_abs"])
+            put(Quantity(f"peak {qty} [{unit}]", unit, headline=qty in ("bending", "strain")), peaks[qty]["max_abs"])
     for name, p in peaks.items():
         if "min" in p:
             unit = "N" if name.startswith("F") else "Nm" if name.startswith("M") else "-"
-            put(Quantity(f"{name} max |.|", f"largest |{name}|", unit), max(abs(p["min"]), abs(p["max"])))
+            put(Quantity(f"{name} max |.|", unit), max(abs(p["min"]), abs(p["max"])))
     fat = summary.get("fatigue")
     if fat:
         top = fat["hotspots"][0]
-        put(Quantity(f"DEL {fat['sn_quantity']}, worst joint",
-                     f"damage-equivalent amplitude of the {fat['sn_quantity']} at the worst joint",
-                     fat.get("unit", "-")), top["del_amplitude"])
+        put(Quantity(f"DEL {fat['sn_quantity']}, worst joint", fat.get("unit", "-")), top["del_amplitude"])
         if top["life_hours"] is not None:
             # The shortest life over the cable (its worst joint may be another at each n).
-            put(Quantity("fatigue life [h], shortest", "shortest fatigue life (the worst point of the jacket)", "h",
-                         headline=True), top["life_hours"])
+            put(Quantity("fatigue life [h], shortest", "h", headline=True), top["life_hours"])
         for c in fat["clamp_loads"]:
             unit = "N" if c["quantity"].startswith("F") else "Nm"
-            put(Quantity(f"DEL {c['quantity']}", f"damage-equivalent amplitude of {c['quantity']}", unit),
-                c["del_amplitude"])
+            put(Quantity(f"DEL {c['quantity']}", unit), c["del_amplitude"])
     decay = summary.get("decay") or {}
     if "f_damped_hz" in decay:
-        put(Quantity("decay f_damped [Hz]", "damped frequency of the decay test", "Hz", headline=True),
-            decay["f_damped_hz"])
+        put(Quantity("decay f_damped [Hz]", "Hz", headline=True), decay["f_damped_hz"])
     return out
 
 

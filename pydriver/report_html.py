@@ -101,14 +101,23 @@ def html_report(result, model=None, timeseries_path=None) -> str:
              f"coordinates, {s['n_constraints']} constraint rows; equations in the {s['frame']} frame; "
              f"computed in {_job_time(s)} by rotorcable.  SI units, angles in degrees; the abbreviations are "
              "explained in the <a href='#glossary'>glossary</a> at the end.</p>"]
+    # The answers first, then the cable moving, then the details (issue 37).
+    parts.append(_verdict_section(s))
+    from pydriver.animation import animation_html
+    parts.append(animation_html(result, model, timeseries_path))
     for w in s.get("warnings", []):
         parts.append(f"<p class='warn'>{html.escape(w)}</p>")
     parts.append("<h2>Summary</h2><pre>" + html.escape(text_summary(s)) + "</pre>")
     if "reactions" in s:
         rows = [[f"F_{k} [N]", *w["F"]] for k, w in s["reactions"].items()]
         rows += [[f"M_{k} [Nm]", *w["M"]] for k, w in s["reactions"].items()]
-        parts.append("<h2>Support reactions</h2><p>Force and moment the support exerts on the cable "
-                     f"(moment about the clamp point), {s['frame']} frame.</p>" + _table(["", "x", "y", "z"], rows))
+        loads = s.get("loads_on_supports", {})
+        rows += [[f"F on {k} [N]", *w["F"]] for k, w in loads.items()]
+        rows += [[f"M on {k} [Nm]", *w["M"]] for k, w in loads.items()]
+        parts.append("<h2>Support reactions and loads on the supports</h2><p>F_A ... M_B: the force and moment "
+                     "each support exerts on the cable (moment about the clamp point); F on A ... M on B: the load "
+                     "the cable puts on the support, what a clamp is sized for (their opposites); "
+                     f"{s['frame']} frame.</p>" + _table(["", "x", "y", "z"], rows))
     if "refinement" in s:
         r = s["refinement"]
         rows = [[name, *q["values"], q["extrapolated"], q["error_estimate"],
@@ -152,8 +161,6 @@ def html_report(result, model=None, timeseries_path=None) -> str:
                         if rows else "<p>No crossings.</p>"))
     if s.get("resonance"):
         parts.append(_resonance_section(s["resonance"]))
-    if s.get("limits"):
-        parts.append(_limits_section(s["limits"]))
     if "fatigue" in s:
         f = s["fatigue"]
         rows = [[h["rank"], h["quantity"], h["damage_per_hour"], h["life_hours"] if h["life_hours"] is not None
@@ -161,8 +168,6 @@ def html_report(result, model=None, timeseries_path=None) -> str:
         parts.append("<h2>Fatigue hotspots</h2>"
                      f"<p>{html.escape(f['description'])}</p>"
                      + _table(["rank", "quantity", "damage per flight hour", "life [h]", "DEL amplitude"], rows, left=2))
-    from pydriver.animation import animation_html
-    parts.append(animation_html(result, model, timeseries_path))
     images = _images(result)
     if images:
         from pydriver.plots import caption
@@ -176,6 +181,21 @@ def html_report(result, model=None, timeseries_path=None) -> str:
     parts.append(glossary_section("\n".join(parts)))
     parts.append("</body></html>")
     return "\n".join(parts)
+
+
+def _verdict_section(s: dict) -> str:
+    """The verdicts (pydriver.verdicts): the questions the run answers, each value as the
+    terminal summary prints it, the ones that ask for action marked."""
+    from pydriver.verdicts import verdicts
+    rows = verdicts(s)
+    if not rows:
+        return ""
+    cells = "".join(f'<tr><td class="l">{html.escape(v.topic)}</td><td class="l">{html.escape(v.value)}</td>'
+                    f'<td class="{"flag" if v.flagged else "l"}">{html.escape(v.verdict)}</td></tr>' for v in rows)
+    return ("<h2 id='verdicts'>Verdicts</h2><p>The questions this run answers, first; each value as the terminal "
+            "summary and summary.json give it (converged, with its error bar, where the run was refined).</p>"
+            "<div class='scroll'><table class='verdicts'><tr><th class='l'>question</th>"
+            f"<th class='l'>value</th><th class='l'>verdict</th></tr>{cells}</table></div>")
 
 
 def _job_time(s: dict) -> str:
@@ -202,17 +222,6 @@ def glossary_section(page: str) -> str:
     terms = used_terms(_visible_text(page))
     items = "".join(f"<dt>{html.escape(t.term)}</dt><dd>{html.escape(t.meaning)}</dd>" for t in terms)
     return f"<h2 id='glossary'>Glossary</h2><dl class='glossary'>{items}</dl>"
-
-
-def _limits_section(rows: list) -> str:
-    """The values judged against the deck's &limits (and those the deck sets no limit for)."""
-    from pydriver.report_text import limit_value_text, limit_verdict
-    out = [[r["quantity"], limit_value_text(r["value"], r["unit"]), r["where"],
-            f"{r['sense']} {limit_value_text(r['limit'], r['unit'])}" if r["limit"] is not None
-            else f"none ({r['key']})", limit_verdict(r)] for r in rows]
-    return ("<h2>Limits</h2><p>The results the deck's limits (&amp;limits) judge: a value beyond its limit is "
-            "NOT MET; a value without a limit in the deck is not judged.</p>"
-            + _table(["quantity", "value", "where", "limit", "verdict"], out, left={0, 2, 3}))
 
 
 def _resonance_section(block: dict) -> str:

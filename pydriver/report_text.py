@@ -3,49 +3,12 @@ form): what ran, the reactions with units, frequencies, peaks, warnings, where t
 
 from __future__ import annotations
 
-import math
 import re
 
 from pydriver.analyses.registry import sections_of
-
-
-def _num(x: float, digits: int = 5) -> str:
-    """A number with ``digits`` significant digits, without exponent clutter near 1."""
-    if x == 0 or not math.isfinite(x):
-        return f"{x:g}"
-    if 1e-3 <= abs(x) < 1e6:
-        decimals = max(0, digits - 1 - int(math.floor(math.log10(abs(x)))))
-        return f"{x:.{decimals}f}"
-    return f"{x:.{digits - 1}e}"
-
-
-#: Refined quantities (summary['refinement'], refinement.csv) by their stored names, and the
-#: words a reader is shown for them: the names stay (refinement.csv and readers key on them).
-_QUANTITY_WORDS = (
-    (re.compile(r"fd(\d+) \[Hz\]"), r"damped frequency of mode \1 [Hz]"),
-    (re.compile(r"f(\d+) \[Hz\]"), r"undamped frequency of mode \1 [Hz]"),
-    (re.compile(r"peak bending \[Nm\]"), "largest bending moment [Nm]"),
-    (re.compile(r"peak torsion \[Nm\]"), "largest torsion moment [Nm]"),
-    (re.compile(r"peak axial \[N\]"), "largest axial force [N]"),
-    (re.compile(r"peak strain \[-\]"), "largest jacket strain [-]"),
-    (re.compile(r"(F[AB]_[xyz]) max \|\.\|"), r"largest |\1| [N]"),
-    (re.compile(r"(M[AB]_[xyz]) max \|\.\|"), r"largest |\1| [Nm]"),
-    (re.compile(r"DEL strain, worst joint"), "damage-equivalent strain amplitude, worst joint [-]"),
-    (re.compile(r"DEL bending, worst joint"), "damage-equivalent bending amplitude, worst joint [Nm]"),
-    (re.compile(r"DEL (F[AB]_[xyz])"), r"damage-equivalent amplitude of \1 [N]"),
-    (re.compile(r"DEL (M[AB]_[xyz])"), r"damage-equivalent amplitude of \1 [Nm]"),
-    (re.compile(r"fatigue life \[h\], shortest"), "shortest fatigue life [h]"),
-    (re.compile(r"decay f_damped \[Hz\]"), "damped frequency of the decay test [Hz]"),
-)
-
-
-def quantity_label(name: str) -> str:
-    """The words shown for a refined quantity's stored name (``'fd1 [Hz]'``: "damped frequency
-    of mode 1 [Hz]"); a name without such words is shown as it is."""
-    for pattern, words in _QUANTITY_WORDS:
-        if pattern.fullmatch(name):
-            return pattern.sub(words, name)
-    return name
+from pydriver.number_format import num as _num
+from pydriver.quantities import label_of as quantity_label
+from pydriver.verdicts import verdict_lines
 
 
 def _row(label: str, values, width: int = 12) -> str:
@@ -57,6 +20,8 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
     s = summary
     lines = [f"{s['case']}  ({s['analysis']}, {s['n_bodies']} bodies, {s['n_coords']} coordinates, "
              f"{s['n_constraints']} constraint rows, {s['frame']} frame)  {s['wall_time_s']:.2f} s"]
+    # The answers first (issue 37), each value as every output prints it (pydriver.verdicts).
+    lines += verdict_lines(s)
     solver = s.get("solver", {})
     if "steps" in solver:
         lines.append(f"  integration: {solver['steps']} steps, {solver['residual_evals']} residuals")
@@ -75,6 +40,12 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
             lines.append(_row(f"M_{side} [Nm]", w["M"]))
     if "tip_m" in s:
         lines.append(_row("tip [m]", s["tip_m"]))
+    if s.get("loads_on_supports"):
+        # What a clamp is sized for: the load the cable puts on it, the reaction's opposite.
+        lines.append("  loads on the supports (cable on support, what a clamp carries):")
+        for side, w in s["loads_on_supports"].items():
+            lines.append(_row(f"F on {side} [N]", w["F"]))
+            lines.append(_row(f"M on {side} [Nm]", w["M"]))
     if s.get("max_constraint_violation_m"):
         lines.append(f"  clamp closed to {s['max_constraint_violation_m']:.1e} m")
     if "frequencies_hz" in s and "modes" in sections_of(s):
@@ -116,10 +87,11 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
                      f"strain {_num(p['strain']['max_abs'], 3)}")
     if "fatigue" in s:
         top = s["fatigue"]["hotspots"][:3]
+        at_n = f" at n = {s['n_bodies']}" if "refinement" in s else ""
         for h in top:
             life = h["life_hours"]
             life_text = "no damage" if life is None else f"{_num(life, 3)} h"
-            lines.append(f"  fatigue hotspot {h['rank']}: {h['quantity']}, life {life_text}")
+            lines.append(f"  fatigue hotspot {h['rank']}: {h['quantity']}, life {life_text}{at_n}")
     if "refinement" in s:
         q = {k: r for k, r in s["refinement"]["quantities"].items() if "extrapolated" in r}
         # Frequencies, peak loads and the worst joint's DEL first; the clamp-load maxima and
@@ -143,15 +115,6 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
         sh = s["shooting"]
         lines.append(f"  periodic state by shooting: {sh['newton_iterations']} Newton iterations "
                      f"({sh['revolutions_integrated']} revolutions integrated in all)")
-    if "floquet" in s:
-        fl = s["floquet"]
-        where = f" (n = {fl['n_bodies']})" if "n_bodies" in fl else ""
-        if fl.get("n_modes"):
-            ld = fl["least_damped"]
-            lines.append(f"  Floquet stability{where}: {'stable' if fl['stable'] else 'UNSTABLE'}, largest |multiplier| "
-                         f"{fl['max_multiplier_abs']:.4g}; least damped mode {_num(ld['frequency_hz'], 4)} Hz, "
-                         f"damping ratio {ld['damping_ratio']:.3g}")
-    lines += _limit_lines(s.get("limits"))
     for w in s.get("warnings", []):
         lines.append(f"  warning: {w}")
     if files:
@@ -174,33 +137,6 @@ def _collapse_series(names: list[str]) -> list[str]:
     for group in series.values():
         out.append(group[0] if len(group) == 1 else f"{group[0]} ... {group[-1]} ({len(group)} files)")
     return sorted(out)
-
-
-def limit_value_text(value: float, unit: str) -> str:
-    """A judged value with its unit (strain also in percent)."""
-    return f"{_num(value, 3)} ({_num(100 * value, 3)} %)" if unit == "-" else f"{_num(value, 3)} {unit}"
-
-
-def limit_verdict(row: dict) -> str:
-    """'NOT MET', 'ok' or 'not judged' (no limit in the deck) of a summary['limits'] row."""
-    if row["limit"] is None:
-        return "not judged"
-    return "NOT MET" if row["exceeded"] else "ok"
-
-
-def _limit_lines(rows: list | None) -> list[str]:
-    """The values judged against the deck's &limits, one line each."""
-    if not rows:
-        return []
-    lines = ["  limits (&limits):"]
-    for r in rows:
-        if r["limit"] is None:
-            against = f"not judged: no {r['key']} in the deck"
-        else:
-            against = (f"limit {r['sense']} {limit_value_text(r['limit'], r['unit'])}: "
-                       + limit_verdict(r))
-        lines.append(f"    {r['quantity']} {limit_value_text(r['value'], r['unit'])} ({r['where']}); {against}")
-    return lines
 
 
 def _resonance_lines(block: dict | None) -> list[str]:

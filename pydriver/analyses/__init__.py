@@ -47,6 +47,9 @@ def run(model, run_dir=None, restart=None):
     # which the summary, report.html and the limits read (pydriver.quantities).
     from pydriver.quantities import headlines
     result.summary["headline"] = headlines(result.summary)
+    if "reactions" in result.summary:
+        from pydriver.analyses.common import loads_on_supports
+        result.summary["loads_on_supports"] = loads_on_supports(result.summary["reactions"])
     from pydriver.analyses.resonance import attach_margins
     attach_margins(model, result)
     from pydriver.analyses.limits import attach_limits

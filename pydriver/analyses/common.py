@@ -9,6 +9,9 @@ from pydriver.errors import DeckError
 
 RAD2DEG = 180.0 / np.pi
 REACTION_NAMES = ["FA_x", "FA_y", "FA_z", "MA_x", "MA_y", "MA_z", "FB_x", "FB_y", "FB_z", "MB_x", "MB_y", "MB_z"]
+#: The loads the cable puts on its supports, each the reaction's opposite (what a clamp is sized
+#: for; issue 37: structural engineers read this sign), in the order of REACTION_NAMES.
+SUPPORT_LOAD_NAMES = [f"{n[:2]}_on_support_{n[3]}" for n in REACTION_NAMES]
 
 
 def reactions(w, has_b: bool) -> dict:
@@ -17,6 +20,13 @@ def reactions(w, has_b: bool) -> dict:
     if has_b:
         out["B"] = {"F": [float(x) for x in w[6:9]], "M": [float(x) for x in w[9:12]]}
     return out
+
+
+def loads_on_supports(reactions_block: dict) -> dict:
+    """The loads the cable puts on its supports (cable on support, what a clamp carries): each
+    reaction of :func:`reactions` with its sign turned, in the same frame, the moment about the
+    same clamp point (Newton's third law)."""
+    return {side: {k: [-x for x in v] for k, v in w.items()} for side, w in reactions_block.items()}
 
 
 def joint_geometry(model) -> dict:

@@ -58,7 +58,8 @@ def _family_changes(ts: dict, check: dict, rows) -> dict:
     """{family: largest |change| over its largest |value|} of the columns both series have."""
     out = {}
     for family, prefixes in _FAMILIES.items():
-        names = [c for c in ts if c.startswith(prefixes) and c in check]
+        # The reactions alone (their opposites, the loads on the supports, would count twice).
+        names = [c for c in ts if c.startswith(prefixes) and "_on_support_" not in c and c in check]
         if not names:
             continue
         a = np.stack([np.asarray(ts[c], float)[rows] for c in names])

@@ -1,5 +1,7 @@
 """Values judged against the deck's limits (``&limits``): the largest jacket strain against
-``jacket_strain`` and the shortest fatigue life against ``fatigue_life_hours``.
+``jacket_strain`` and the shortest fatigue life against ``fatigue_life_hours``.  Each is the
+quantity's headline value (:mod:`pydriver.quantities`: converged with its error bar where the
+run was refined), and a limit is met only when the whole error bar meets it.
 
 :func:`attach_limits` adds ``summary['limits']`` (one row per judged quantity: value, limit,
 where, exceeded) and a warning for each limit exceeded; the terminal summary and report.html
@@ -12,6 +14,12 @@ from __future__ import annotations
 import numpy as np
 
 from pydriver.key_scope import applies
+
+
+def _headline(result, name: str) -> dict | None:
+    """The headline entry of a quantity (pydriver.quantities): its one value, converged with its
+    error bar where the run was refined."""
+    return (result.summary.get("headline") or {}).get(name)
 
 
 def _largest_strain(result) -> tuple[float, str] | None:
@@ -45,21 +53,37 @@ def _shortest_life(result) -> tuple[float, str] | None:
     return float(h["life_hours"]), h["quantity"]
 
 
+def _row(quantity: str, unit: str, value: float, where: str, head: dict | None, limit, key: str,
+         at_most: bool) -> dict:
+    """One row: the headline value where there is one (converged, with its error bar), judged at
+    the worst end of its error bar (a limit is met only when the whole bar meets it)."""
+    error = 0.0
+    basis = ""
+    asymptotic = True
+    if head is not None:
+        value, error, basis = float(head["value"]), float(head.get("error_estimate", 0.0)), head["basis"]
+        asymptotic = bool(head.get("asymptotic", True))
+    worst = value + error if at_most else value - error
+    exceeded = None if limit is None else bool(worst > limit if at_most else worst < limit)
+    return {"quantity": quantity, "value": value, "error_estimate": error, "basis": basis, "asymptotic": asymptotic,
+            "unit": unit,
+            "where": where, "limit": limit, "key": key, "sense": "at most" if at_most else "at least",
+            "exceeded": exceeded}
+
+
 def judge(result, strain_limit: float | None, life_limit: float | None) -> list[dict]:
     """The rows of summary['limits'] (see the module docstring)."""
     rows = []
     strain = _largest_strain(result)
     if strain is not None:
         value, where = strain
-        rows.append({"quantity": "largest jacket strain", "value": value, "unit": "-", "where": where,
-                     "limit": strain_limit, "key": "&limits jacket_strain", "sense": "at most",
-                     "exceeded": None if strain_limit is None else bool(value > strain_limit)})
+        rows.append(_row("largest jacket strain", "-", value, where, _headline(result, "peak strain [-]"),
+                         strain_limit, "&limits jacket_strain", at_most=True))
     life = _shortest_life(result)
     if life is not None:
         value, where = life
-        rows.append({"quantity": "shortest fatigue life", "value": value, "unit": "h", "where": where,
-                     "limit": life_limit, "key": "&limits fatigue_life_hours", "sense": "at least",
-                     "exceeded": None if life_limit is None else bool(value < life_limit)})
+        rows.append(_row("shortest fatigue life", "h", value, where, _headline(result, "fatigue life [h], shortest"),
+                         life_limit, "&limits fatigue_life_hours", at_most=False))
     return rows
 
 

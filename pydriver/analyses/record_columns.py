@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pydriver.analyses.common import RAD2DEG, REACTION_NAMES, joint_columns
+from pydriver.analyses.common import RAD2DEG, REACTION_NAMES, SUPPORT_LOAD_NAMES, joint_columns
 
 
 #: Names of a joint's coordinates, in their order in q (docs/model.md: thesis gamma/beta, or
@@ -38,6 +38,7 @@ def column_names(model) -> list[str]:
     names += [f"{c}{j + 1}" for j in range(nb) for c in "xyz"]
     names += [f"{a}{j + 1}_deg" for j in range(nb) for a in ("gamma", "beta")]
     names += REACTION_NAMES if model.nc > 0 else REACTION_NAMES[:6]
+    names += SUPPORT_LOAD_NAMES if model.nc > 0 else SUPPORT_LOAD_NAMES[:6]
     names += ["tip_x", "tip_y", "tip_z", "E_kin_J", "E_pot_J", "g_max_m"]
     names += [f"{q}{j + 1}_{u}" for j in range(nb) for q, u in
               (("axial", "N"), ("shear", "N"), ("bending", "Nm"), ("torsion", "Nm"), ("curvature", "1pm"))]
@@ -66,6 +67,8 @@ def chunk_columns(model, t, sample, q, v) -> dict:
         cols[f"beta{j + 1}_deg"] = sample["angles"][1, j] * RAD2DEG
     for i, name in enumerate(REACTION_NAMES[:12 if model.nc > 0 else 6]):
         cols[name] = sample["wrenches"][:, i]
+    for i, name in enumerate(SUPPORT_LOAD_NAMES[:12 if model.nc > 0 else 6]):
+        cols[name] = -sample["wrenches"][:, i]
     for c, name in enumerate(("tip_x", "tip_y", "tip_z")):
         cols[name] = sample["joints"][c, -1]
     cols["E_kin_J"] = sample["kinetic"]
