@@ -43,6 +43,7 @@ def check(deck: Deck) -> None:
     _fatigue(deck)
     _limits(deck)
     _refinement(deck)
+    _resonance(deck)
     _memory_budget(deck)
     # The optimiser's keys first: on another analysis they are refused by their own names, before
     # &design parameters is found missing.
@@ -254,6 +255,18 @@ def _limits(deck: Deck):
     if deck.has("limits.fatigue_life_hours") and "fatigue" not in deck.groups:
         deck.fail("limits", "fatigue_life_hours", "needs &fatigue: without an S-N curve no life is computed to "
                                                   "judge against it")
+
+
+def _resonance(deck: Deck):
+    """Blade-passage excitation needs at least one multiple of the blade count among the
+    harmonics checked (a Campbell deck's own harmonics unless &resonance sets them)."""
+    if deck["resonance.excitation"] != "blade_passage":
+        return
+    group = "campbell" if analysis_of(deck).sweeps_speed and not deck.has("resonance.harmonics") else "resonance"
+    top, blades = int(deck[f"{group}.harmonics"]), int(deck["resonance.blades"])
+    if top < blades:
+        deck.fail(group, "harmonics", f"= {top} is below &resonance blades = {blades}: with excitation = "
+                                      "'blade_passage' no harmonic would be checked (the first is the blade count)")
 
 
 def _refinement(deck: Deck):

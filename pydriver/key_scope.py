@@ -278,13 +278,22 @@ SCOPES: tuple[Scope, ...] = (
     # resonance margins (modal, Campbell, flight); a design run's frequency margin takes the
     # harmonics and operating speed, not the margins' own margin_percent
     Scope(("resonance",), ("modal", "campbell", "flight"),
-          lambda deck, a: a == "design" or _operating_speed(deck, a),
+          lambda deck, a: a == "design" or REGISTERED[a].sweeps_speed or _operating_speed(deck, a),
+          "in modal, Campbell and flight runs with an operating speed (a turning rotor at a constant speed, "
+          "&resonance operating_rpm or, in a Campbell run, &campbell operating_rpm)", design="acts"),
+    # the margins themselves need an operating speed; which harmonics excite also picks a Campbell
+    # diagram's crossings, which it reports over its operating range (0 ... rpm_max by default)
+    Scope(("resonance.margin_percent", "resonance.harmonics", "resonance.operating_rpm"),
+          ("modal", "campbell", "flight"), lambda deck, a: a == "design" or _operating_speed(deck, a),
           "in modal, Campbell and flight runs with an operating speed (a turning rotor at a constant speed, "
           "&resonance operating_rpm or, in a Campbell run, &campbell operating_rpm)", design="acts"),
     Scope(("resonance.margin_percent",), ("modal", "campbell", "flight"), design="ignored"),
-    Scope(("resonance.harmonics", "resonance.operating_rpm"), ("modal", "campbell", "flight"),
+    Scope(("resonance.harmonics", "resonance.operating_rpm", "resonance.excitation", "resonance.blades"),
+          ("modal", "campbell", "flight"),
           lambda deck, a: a != "design" or deck["design.frequency_margin_percent"] is not None,
           "with &design frequency_margin_percent in a design run", design="acts"),
+    Scope(("resonance.blades",), when=lambda deck, a: deck["resonance.excitation"] == "blade_passage",
+          condition="with &resonance excitation = 'blade_passage'", design="acts"),
     Scope(("drag",), when=_stream_or_turning,
           condition="in a static or modal run with a stream (stream_velocity, forward_speed) or a turning "
                     "rotor (drag is quadratic in the velocity through the air)"),

@@ -97,7 +97,7 @@ COLUMNS = [
     Column(("campbell_crossings.csv",), "rpm_error", "rpm", "its error estimate"),
     Column(("campbell_crossings.csv",), "rpm_order", "-", "its observed order of convergence"),
     Column(("campbell_crossings.csv", "resonance.csv"), "harmonic", "-", "rotor harmonic k (k/rev)"),
-    Column(("campbell_crossings.csv", "resonance.csv"), "frequency_hz", "Hz", "frequency of the mode"),
+    Column(("campbell_crossings.csv", "resonance.csv"), "frequency_hz", "Hz", "damped frequency of the mode"),
     # -- Floquet stability ---------------------------------------------------------------------------
     Column(("floquet.csv",), "mode", "-", "Floquet mode (a multiplier; complex pairs listed once)"),
     Column(("floquet.csv",), "multiplier_re", "-", "real part of the Floquet multiplier rho"),

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from pydriver.analyses.registry import sections_of
+from pydriver.analyses.resonance import harmonics_text
 from pydriver.report_text import _num, text_summary
 from pydriver.richardson import TWO_GRID_SAFETY
 from pydriver.schema import lookup
@@ -233,13 +234,16 @@ def _resonance_section(block: dict) -> str:
              f"{r['harmonic']}/rev", r["harmonic_hz"], f"{r['worst_margin_percent']:.1f}",
              "WITHIN MARGIN" if r["within_margin"] else "ok"] for r in block["modes"]]
     speeds = ", ".join(f"{x:g}" for x in block["operating_rpm"])
-    text = (f"<h2>Resonance margins</h2><p>Each mode's separation from the nearest rotor harmonic k/rev "
-            f"(k = 1 ... {block['harmonics']}) at {speeds} rpm, in percent of the harmonic, narrowed by the "
+    orders = harmonics_text(block.get("excited_harmonics", block["harmonics"]))
+    text = (f"<h2>Resonance margins</h2><p>Each mode's damped frequency (what resonates: damping and the "
+            f"Coriolis coupling of a turning frame included) against the nearest rotor harmonic of "
+            f"{html.escape(orders)} at {speeds} rpm, in percent of the harmonic, narrowed by the "
             f"frequency's error bar where the run was refined; required: {block['required_margin_percent']:g} % "
-            f"(&resonance margin_percent).  Modes about {html.escape(block['modes_about'])}.</p>")
+            f"(&amp;resonance margin_percent; which harmonics: &amp;resonance excitation).  Modes about "
+            f"{html.escape(block['modes_about'])}.</p>")
     if not rows:
         return text + "<p>No mode below the highest harmonic.</p>"
-    return text + _table(["mode", "rpm", "f [Hz]", "error [Hz]", "nearest", "harmonic [Hz]", "margin [%]",
+    return text + _table(["mode", "rpm", "f damped [Hz]", "error [Hz]", "nearest", "harmonic [Hz]", "margin [%]",
                           "verdict"], rows)
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import re
 
 from pydriver.analyses.registry import sections_of
+from pydriver.analyses.resonance import harmonics_text
 from pydriver.number_format import num as _num
 from pydriver.quantities import label_of as quantity_label
 from pydriver.verdicts import verdict_lines
@@ -51,8 +52,8 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
     if "frequencies_hz" in s and "modes" in sections_of(s):
         fu = ", ".join(_num(f, 4) for f in s["frequencies_hz"][:6])
         fd = ", ".join(_num(f, 4) for f in s["damped_frequencies_hz"][:6])
-        lines.append(f"  natural frequencies [Hz]: {fu}")
-        lines.append(f"  damped [Hz]:              {fd}")
+        lines.append(f"  natural frequencies, undamped [Hz]: {fu}")
+        lines.append(f"  damped [Hz]:                        {fd}")
     if "design" in s:
         d = s["design"]
         o = d["objective"]
@@ -71,10 +72,10 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
         lines.append(f"  decay test: {_num(d['f_damped_hz'], 5)} Hz damped"
                      + (f", zeta = {_num(d['zeta'], 3)}" if "zeta" in d else ""))
     if "campbell" in sections_of(s):
-        lines.append(f"  lowest frequency in the operating range {_num(s['lowest_frequency_hz'], 4)} Hz; "
+        lines.append(f"  lowest (damped) frequency in the operating range {_num(s['lowest_frequency_hz'], 4)} Hz; "
                      f"1/rev reaches {_num(s['highest_1rev_hz'], 3)} Hz")
-        lines.append(f"  crossings with 1/rev ... {s['harmonics']}/rev in the operating range: "
-                     f"{len(s['crossings'])}")
+        lines.append(f"  crossings with {harmonics_text(s.get('excited_harmonics', s['harmonics']))} in the operating "
+                     f"range: {len(s['crossings'])}")
         for c in s["crossings"][:8]:
             converged = (f", converged {c['rpm_extrapolated']:.1f} +- {_num(c['rpm_error'], 2)} rpm"
                          if c.get("rpm_extrapolated") is not None else "")
@@ -146,8 +147,10 @@ def _resonance_lines(block: dict | None) -> list[str]:
     if not block.get("operating_rpm"):
         return [f"  resonance margins: {block.get('note', 'no operating speed')}"]
     speeds = ", ".join(f"{r:g}" for r in block["operating_rpm"])
-    lines = [f"  resonance margins at {speeds} rpm (required {block['required_margin_percent']:g} % from "
-             f"1/rev ... {block['harmonics']}/rev; modes about {block['modes_about']}):"]
+    orders = block.get("excited_harmonics", block["harmonics"])
+    lines = [f"  resonance margins of the damped frequencies at {speeds} rpm (required "
+             f"{block['required_margin_percent']:g} % from {harmonics_text(orders)}; modes about "
+             f"{block['modes_about']}):"]
     if not block["modes"]:
         lines.append("    no mode below the highest harmonic")
     for r in block["modes"][:8]:

@@ -249,7 +249,18 @@ def _keys() -> list[Key]:
             doc="required separation of every mode from every k/rev harmonic, in percent of the harmonic "
                 "(10: a common rotorcraft rule of thumb; modal, Campbell and flight runs flag a mode closer)"))
     add(Key("resonance", "harmonics", "int", default=8, low=1, high=64,
-            doc="harmonics checked: 1/rev ... harmonics/rev (64: beyond any rotor's excitation)"))
+            doc="the highest harmonic checked: 1/rev ... harmonics/rev (or its blade-passage multiples, "
+                "excitation); modes above (harmonics + 1)/rev are not excited and not listed (64: beyond any "
+                "rotor's excitation)"))
+    add(Key("resonance", "excitation", "str", default="every", choices=("every", "blade_passage"),
+            doc="which harmonics excite the cable: 'every' k/rev, k = 1 ... harmonics (a cable on the blade sees "
+                "the blade's own motion, every harmonic of it), or 'blade_passage', the multiples of blades up to "
+                "harmonics (a part in the fixed frame: the blades' other harmonics cancel at the hub); read by the "
+                "resonance margins, the Campbell crossings and the design optimiser's frequency margin "
+                "(docs/model.md, \"Resonance margins\")"))
+    add(Key("resonance", "blades", "int", default=4, low=1, high=8,
+            doc="the rotor's blade count, with excitation = 'blade_passage' (4: the UH-60)",
+            note="helicopter rotors have 2 to 8 blades (the Mi-26: 8); 1 is a counterweighted single blade"))
     add(Key("resonance", "operating_rpm", "real", "list", "rpm", low=0.0, high=1.0e5,
             doc="operating speed(s) of the margins; default: the deck's rotor speed (flight, hub-frame "
                 "modal) or &campbell operating_rpm"))

@@ -196,6 +196,8 @@ VALUES = {
     "resonance.margin_percent": (90.0, {}),
     "resonance.harmonics": (2, {}),
     "resonance.operating_rpm": (90.0, {}),
+    "resonance.excitation": ("blade_passage", {}),
+    "resonance.blades": (2, {"resonance.excitation": "blade_passage"}),
     "drag.air_density": (2.0, {"drag.forward_speed": 10.0}),
     "drag.cd": (2.0, {"drag.forward_speed": 10.0}),
     "drag.stream_velocity": ([5.0, 0.0, 0.0], {}),

@@ -107,6 +107,10 @@ def test_campbell_margins_over_the_operating_range_find_the_crossings():
     ("operating_rpm", "-260.0", "allowed"),
     ("margin_percent", "10.0, 20.0", "one value"),          # wrong count
     ("operating_rpm", "1.0e9", "out of range"),
+    ("excitation", "'fixed'", "'every' | 'blade_passage'"),
+    ("blades", "0", "at least 1"),
+    ("blades", "9", "at most 8"),
+    ("harmonics", "3\n  excitation = 'blade_passage'", "below &resonance blades = 4"),   # no harmonic left
 ])
 def test_resonance_keys_are_checked(tmp_path, key, value, words):
     text = FLIGHT.read_text() + f"\n&resonance\n  {key} = {value}\n/\n"
@@ -115,6 +119,37 @@ def test_resonance_keys_are_checked(tmp_path, key, value, words):
     with pytest.raises(pydriver.DeckError) as exc:
         pydriver.run_deck(p)
     assert (exc.value.group, exc.value.key) == ("resonance", key) and words in str(exc.value)
+
+
+def test_blade_passage_excitation_checks_the_multiples_of_the_blade_count(flight_n11):
+    """excitation = 'blade_passage' checks k = blades, 2 blades, ... <= harmonics.  The main job's
+    first mode (16.22 Hz damped at n = 11) with 3 blades: 3/rev = 13 Hz and 6/rev = 26 Hz, the
+    nearest 3/rev, (16.22 - 13)/13; with 4 blades 4/rev as with every harmonic; and a mode is
+    listed up to one harmonic above the highest checked, 9/rev = 39 Hz with 8 (4, 8) as with
+    every harmonic, 10/rev = 43.3 Hz with 9 (3, 6, 9)."""
+    model, every = flight_n11
+    f1 = every.summary["damped_frequencies_hz"][0]
+    three = pydriver.run_deck(model.with_changes({"resonance.excitation": "blade_passage", "resonance.blades": 3,
+                                                  "resonance.harmonics": 9})).summary["resonance"]
+    assert three["excited_harmonics"] == [3, 6, 9] and three["excitation"] == "blade_passage"
+    row = three["modes"][0]
+    assert row["harmonic"] == 3
+    assert row["margin_percent"] == pytest.approx(100 * (f1 - 13.0) / 13.0, rel=1e-12)
+    assert max(r["frequency_hz"] for r in three["modes"]) <= 10 * 260.0 / 60.0
+    four = pydriver.run_deck(model.with_changes({"resonance.excitation": "blade_passage"})).summary["resonance"]
+    assert four["excited_harmonics"] == [4, 8]
+    assert four["modes"] == every.summary["resonance"]["modes"]            # mode 1's nearest is 4/rev either way
+
+
+def test_campbell_crossings_follow_the_excitation():
+    """The Campbell diagram counts crossings with the excited harmonics only: with 'blade_passage'
+    (4 blades) exactly the crossings with 4/rev and 8/rev of the diagram that counts every k/rev."""
+    every = pydriver.run_deck(INPUTS / "uh60_part2_campbell.nml").summary
+    deck = pydriver.Model.from_deck(INPUTS / "uh60_part2_campbell.nml")
+    passage = pydriver.run_deck(deck.with_changes({"resonance.excitation": "blade_passage"})).summary
+    assert passage["excited_harmonics"] == [4, 8] and every["excited_harmonics"] == list(range(1, 9))
+    assert {c["harmonic"] for c in every["crossings"]} - {4, 8}       # the test has something to remove
+    assert passage["crossings"] == [c for c in every["crossings"] if c["harmonic"] in (4, 8)]
 
 
 def test_reversed_operating_speeds_give_the_same_margins(flight_n11):

@@ -23,6 +23,7 @@ import numpy as np
 from pydriver.analyses.common import base_summary
 from pydriver.analyses.hover_modes import hover_changes
 from pydriver.analyses.linear_modes import complex_modes, mac
+from pydriver.analyses.resonance import excited_harmonics, harmonic_orders
 from pydriver.analyses.statics import unforced, unforced_note
 from pydriver.errors import RunError
 from pydriver.motions import RPM
@@ -157,17 +158,18 @@ def shapes_speed(rpm: np.ndarray, op, operating_rpm) -> int:
     return int(np.argmin(np.abs(np.asarray(rpm, float) - target)))
 
 
-def crossings(rpm, freqs, harmonics: int, op_range) -> list[dict]:
-    """Where a tracked mode's frequency meets k/rev inside the operating range (linear
-    interpolation between grid speeds).  Only between speeds where the mode oscillates at
-    both ends: an overdamped mode (frequency 0) cannot resonate, and interpolating into its 0
-    would invent a crossing."""
+def crossings(rpm, freqs, harmonics, op_range) -> list[dict]:
+    """Where a tracked mode's (damped) frequency meets k/rev inside the operating range (linear
+    interpolation between grid speeds), k over ``harmonics`` (K: 1 ... K, or the excited orders,
+    :func:`pydriver.analyses.resonance.excited_harmonics`).  Only between speeds where the mode
+    oscillates at both ends: an overdamped mode (frequency 0) cannot resonate, and interpolating
+    into its 0 would invent a crossing."""
     rpm = np.asarray(rpm, float)
     out = []
     for mode in range(freqs.shape[1]):
         f = freqs[:, mode]
         both = (f[:-1] > 0.0) & (f[1:] > 0.0)
-        for k in range(1, harmonics + 1):
+        for k in (int(x) for x in harmonic_orders(harmonics)):
             gap = f - k * rpm / 60.0
             for i in np.flatnonzero(both & ((gap[:-1] == 0.0) | (gap[:-1] * gap[1:] < 0.0))):
                 w = gap[i] / (gap[i] - gap[i + 1]) if gap[i] != gap[i + 1] else 0.0
@@ -327,12 +329,14 @@ def campbell_analysis(model, run_dir=None) -> Result:
         zero[i] = zero_stiffness[pick]
         if np.any(sv.real > 1e-9 * np.max(np.abs(sv))):
             unstable.append(float(r))
-    found = crossings(rpm, freqs, int(c["harmonics"]), op)
+    # The crossings that matter: with the harmonics that excite the cable (&resonance excitation).
+    excited = excited_harmonics(model.deck, int(c["harmonics"]))
+    found = crossings(rpm, freqs, excited, op)
     checked_macs = tracking_macs(macs, zero)
     summary = base_summary(model, "campbell", time.perf_counter() - t_wall)
     lowest = lowest_in_range(rpm, freqs, op)
     summary.update(rpm=[float(x) for x in rpm], operating_rpm=[float(x) for x in op],
-                   harmonics=int(c["harmonics"]), lag_band_hz=[float(x) for x in band],
+                   harmonics=int(c["harmonics"]), excited_harmonics=excited, lag_band_hz=[float(x) for x in band],
                    frequencies_hz=[[float(x) for x in row] for row in freqs],
                    crossings=found, lowest_frequency_hz=lowest,
                    highest_1rev_hz=float(op[1] / 60.0),
@@ -414,7 +418,7 @@ def _by_pair(found: list) -> dict:
     return out
 
 
-def refine_crossings(diagrams: list, ns: list, harmonics: int, op, expected_order: float) -> tuple:
+def refine_crossings(diagrams: list, ns: list, harmonics, op, expected_order: float) -> tuple:
     """Every crossing speed in the operating range with its Richardson value, order and error.
 
     Each level's crossings are found over the whole diagram (not only in the operating range:
@@ -435,7 +439,8 @@ def refine_crossings(diagrams: list, ns: list, harmonics: int, op, expected_orde
         Each level's speed grid [rpm] and (n_speeds, n_modes) frequencies [Hz], coarse to fine.
     ns : list of int
         The levels' numbers of bodies.
-    harmonics : int
+    harmonics : int or sequence of int
+        As :func:`crossings`.
     op : (float, float)
         Operating range [rpm].
     expected_order : float
@@ -553,7 +558,8 @@ def refine_diagram(results: list, ns: list, expected_order: float) -> tuple[dict
     table["f_error_hz"] = conv["error"].reshape(-1)
     table["f_order"] = conv["order"].reshape(-1)
     fine.extra["campbell"].update(f_extrapolated=conv["extrapolated"], f_error=conv["error"])
-    rows, warnings = refine_crossings([(rpm, f) for f in freqs], ns, int(s["harmonics"]), op, expected_order)
+    rows, warnings = refine_crossings([(rpm, f) for f in freqs], ns, s.get("excited_harmonics", int(s["harmonics"])),
+                                      op, expected_order)
     keys = ["mode", "harmonic", "rpm", "frequency_hz", *[f"rpm_n{n}" for n in ns], "rpm_extrapolated", "rpm_error",
             "rpm_order", "f_extrapolated_hz", "f_error_hz", "f_order"]
     if rows:

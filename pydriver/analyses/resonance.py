@@ -7,19 +7,27 @@ default of 10 % of the harmonic's frequency is a common rule of thumb of rotorcr
 placement (assumed here, not from the thesis; the requirement of issue 21); a design office
 sets its own with ``&resonance margin_percent``.
 
+Which harmonics excite is a deck choice (``&resonance excitation``, :func:`excited_harmonics`):
+``'every'`` k/rev, k = 1 ... harmonics (the default: a cable on the blade sees the blade's own
+motion, every harmonic of it), or ``'blade_passage'``, the multiples of the blade count
+``&resonance blades`` up to ``harmonics`` (a part in the fixed frame sees only those: the other
+harmonics of the blades cancel in the hub's loads).
+
 For mode i with frequency f_i and harmonic k at speed Omega (rev/s = rpm/60), the margin is
 
     m_ik = |f_i - k Omega| / (k Omega)   (in percent),
 
-the nearest harmonic is the k of the smallest m_ik (k = 1 ... harmonics), and with an error
+the nearest harmonic is the k of the smallest m_ik over the excited harmonics, and with an error
 bar e_i (Richardson, ``&refinement``) the worst margin is that of the frequency within
 f_i +- e_i nearest the harmonic (0 when the band contains it).  A mode is flagged when its
-worst margin is below the required one.  Modes far above the highest harmonic (f > (K + 1)
-Omega) are not excited and are not listed.
+worst margin is below the required one.  Modes far above the highest harmonic K (f > (K + 1)
+Omega) are not excited and are not listed (:func:`highest_excited_hz`).
 
 The frequencies are those of the linearised motion about the equilibrium at the operating
-speed: damped frequencies, so that the Coriolis coupling of the turning frame is in them;
-an overdamped mode does not oscillate and has no resonance.
+speed: damped frequencies (docs/model.md, "Resonance margins": what resonates is the damped
+motion, with the Coriolis coupling of the turning frame in it); an overdamped mode does not
+oscillate and has no resonance.  The design optimiser's frequency constraint judges the same
+damped frequencies by the same :func:`harmonic_margin` (pydriver/analyses/optimiser.py).
 """
 
 from __future__ import annotations
@@ -31,7 +39,40 @@ import numpy as np
 from pydriver.analyses.registry import analysis_of
 
 
-def harmonic_margin(f_hz: float, error_hz: float, rpm: float, harmonics: int) -> dict:
+def harmonic_orders(harmonics) -> np.ndarray:
+    """The orders k of the harmonics considered: ``harmonics`` an int K (1 ... K) or the orders
+    themselves (:func:`excited_harmonics`)."""
+    if np.ndim(harmonics) == 0:
+        return np.arange(1, int(harmonics) + 1)
+    return np.asarray(sorted(int(k) for k in harmonics), int)
+
+
+def excited_harmonics(deck, highest: int | None = None) -> list[int]:
+    """The orders k of the harmonics k/rev that excite the cable (``&resonance excitation``):
+    every k = 1 ... ``highest`` (default ``&resonance harmonics``), or the blade-passage
+    multiples of ``&resonance blades`` up to it."""
+    top = int(deck["resonance.harmonics"] if highest is None else highest)
+    if deck["resonance.excitation"] == "blade_passage":
+        blades = int(deck["resonance.blades"])
+        return list(range(blades, top + 1, blades))
+    return list(range(1, top + 1))
+
+
+def harmonics_text(orders) -> str:
+    """The harmonics in words: '1/rev ... 8/rev' or '4/rev, 8/rev, 12/rev'."""
+    ks = [int(k) for k in harmonic_orders(orders)]
+    if len(ks) > 2 and ks == list(range(ks[0], ks[-1] + 1)):
+        return f"{ks[0]}/rev ... {ks[-1]}/rev"
+    return ", ".join(f"{k}/rev" for k in ks)
+
+
+def highest_excited_hz(harmonics, rpm: float) -> float:
+    """The frequency above which a mode is not excited [Hz]: one harmonic above the highest
+    considered, (K + 1) Omega."""
+    return float((harmonic_orders(harmonics)[-1] + 1) * rpm / 60.0)
+
+
+def harmonic_margin(f_hz: float, error_hz: float, rpm: float, harmonics) -> dict:
     """The nearest harmonic of one frequency and its margins.
 
     Parameters
@@ -42,8 +83,8 @@ def harmonic_margin(f_hz: float, error_hz: float, rpm: float, harmonics: int) ->
         Its error bar [Hz] (0: none).
     rpm : float
         Rotor speed [rpm] (> 0).
-    harmonics : int
-        Harmonics considered, 1/rev ... harmonics/rev.
+    harmonics : int or sequence of int
+        Harmonics considered: K for 1/rev ... K/rev, or their orders (:func:`excited_harmonics`).
 
     Returns
     -------
@@ -51,7 +92,7 @@ def harmonic_margin(f_hz: float, error_hz: float, rpm: float, harmonics: int) ->
         ``harmonic`` k, ``harmonic_hz``, ``margin_percent`` and ``worst_margin_percent``.
     """
     rev = rpm / 60.0
-    ks = np.arange(1, harmonics + 1)
+    ks = harmonic_orders(harmonics)
     h = ks * rev
     margins = np.abs(f_hz - h) / h
     i = int(np.argmin(margins))
@@ -62,7 +103,7 @@ def harmonic_margin(f_hz: float, error_hz: float, rpm: float, harmonics: int) ->
             "worst_harmonic": int(ks[int(np.argmin(worst))])}
 
 
-def mode_margins(modes: list, rpm_values: list, harmonics: int, required_percent: float) -> list:
+def mode_margins(modes: list, rpm_values: list, harmonics, required_percent: float) -> list:
     """One row per (mode, operating speed) for modes within reach of the harmonics.
 
     Parameters
@@ -73,7 +114,8 @@ def mode_margins(modes: list, rpm_values: list, harmonics: int, required_percent
         zero-stiffness mode) is skipped.
     rpm_values : list of float
         Operating speeds [rpm].
-    harmonics : int
+    harmonics : int or sequence of int
+        As :func:`harmonic_margin`.
     required_percent : float
         The required margin [%].
     """
@@ -81,7 +123,7 @@ def mode_margins(modes: list, rpm_values: list, harmonics: int, required_percent
     for rpm in rpm_values:
         if not rpm > 0.0:
             continue
-        top = (harmonics + 1) * rpm / 60.0
+        top = highest_excited_hz(harmonics, rpm)
         for mode, freq, err in modes:
             f = float(freq(rpm) if callable(freq) else freq)
             if not f > 0.0 or f > top or not math.isfinite(f):
@@ -95,9 +137,14 @@ def mode_margins(modes: list, rpm_values: list, harmonics: int, required_percent
     return rows
 
 
-def summary_block(rows: list, rpm_values: list, harmonics: int, required_percent: float, about: str) -> dict:
-    """summary['resonance']: the rows, the closest mode and the required margin."""
-    block = {"operating_rpm": [float(r) for r in rpm_values], "harmonics": int(harmonics),
+def summary_block(rows: list, rpm_values: list, harmonics, required_percent: float, about: str,
+                  excitation: str = "every") -> dict:
+    """summary['resonance']: the rows, the closest mode and the required margin; ``harmonics``
+    the highest order and ``excited_harmonics`` the orders checked."""
+    orders = harmonic_orders(harmonics)
+    block = {"operating_rpm": [float(r) for r in rpm_values], "harmonics": int(orders[-1]) if orders.size else 0,
+             "excitation": excitation, "excited_harmonics": [int(k) for k in orders],
+             "frequencies": "damped",
              "required_margin_percent": float(required_percent), "modes_about": about, "modes": rows}
     if rows:
         closest = min(rows, key=lambda r: r["worst_margin_percent"])
@@ -111,7 +158,7 @@ def warnings_of(block: dict) -> list[str]:
     out = []
     for r in block["flagged"]:
         err = f" +- {r['error_hz']:.2g}" if r.get("error_hz") else ""
-        out.append(f"resonance: mode {r['mode']} at {r['frequency_hz']:.2f}{err} Hz is within "
+        out.append(f"resonance: mode {r['mode']} at {r['frequency_hz']:.2f}{err} Hz (damped) is within "
                    f"{r['worst_margin_percent']:.1f} % of {r['worst_harmonic']}/rev "
                    f"({r['worst_harmonic'] * r['operating_rpm'] / 60.0:.2f} Hz at {r['operating_rpm']:g} rpm); "
                    f"the required margin is {block['required_margin_percent']:g} % (&resonance margin_percent)")
@@ -148,22 +195,29 @@ def operating_speeds(model) -> list[float]:
     return []
 
 
-def _harmonics(model) -> int:
+def _harmonics(model) -> list[int]:
+    """The orders of the excited harmonics of a run (a Campbell deck's own ``harmonics`` unless
+    &resonance sets one)."""
     deck = model.deck
     if analysis_of(model).sweeps_speed and not deck.has("resonance.harmonics"):
-        return int(deck["campbell.harmonics"])
-    return int(deck["resonance.harmonics"])
+        return excited_harmonics(deck, int(deck["campbell.harmonics"]))
+    return excited_harmonics(deck)
 
 
-def _modal_modes(summary: dict) -> list:
+def _modal_modes(summary: dict, shifts: dict | None = None) -> list:
     """(mode, damped frequency, error bar) of a modal or flight summary; the extrapolated value
-    and its error where the run was refined."""
+    and its error where the run was refined; else, for a mode of ``shifts`` ({mode: (shift,
+    error)}: a design judged on converged frequencies, &design frequency_levels), the value
+    shifted by its discretisation error, with the extrapolation's error bar."""
     refined = (summary.get("refinement") or {}).get("quantities", {})
+    shifts = shifts or {}
     out = []
     for i, f in enumerate(summary.get("damped_frequencies_hz", [])):
         r = refined.get(f"fd{i + 1} [Hz]")
         if r is not None and "extrapolated" in r:
             out.append((i + 1, r["extrapolated"], r["error_estimate"]))
+        elif i + 1 in shifts and f > 0.0:
+            out.append((i + 1, f + shifts[i + 1][0], shifts[i + 1][1]))
         else:
             out.append((i + 1, f, None))
     return out
@@ -199,9 +253,11 @@ def _campbell_rows(result, rpm_values, harmonics, required):
     return [least[m] for m in sorted(least)]
 
 
-def attach_margins(model, result) -> None:
+def attach_margins(model, result, shifts: dict | None = None) -> None:
     """Add summary['resonance'], its warnings and resonance.csv to a modal, Campbell or flight
-    result (after refinement, so that refined frequencies carry their error bars)."""
+    result (after refinement, so that refined frequencies carry their error bars).  ``shifts``
+    ({mode: (shift, error)}): a design optimum judged on converged frequencies (the design's
+    own shifts, so that the table and the design's margin are one number)."""
     entry = analysis_of(model)
     if entry.modes is None:
         return
@@ -216,8 +272,11 @@ def attach_margins(model, result) -> None:
     if entry.modes == "diagram":
         rows = _campbell_rows(result, rpm_values, harmonics, required)
     else:
-        rows = mode_margins(_modal_modes(result.summary), rpm_values, harmonics, required)
-    block = summary_block(rows, rpm_values, harmonics, required, about)
+        rows = mode_margins(_modal_modes(result.summary, shifts), rpm_values, harmonics, required)
+        if shifts:
+            about += (f" (n = {model.n_bodies}, each frequency shifted by its discretisation error f(converged) - "
+                      "f(n), with its Richardson error bar: &design frequency_levels)")
+    block = summary_block(rows, rpm_values, harmonics, required, about, model.deck["resonance.excitation"])
     result.summary["resonance"] = block
     warns = warnings_of(block)
     if warns:
