@@ -130,7 +130,8 @@ COLUMNS = [
     # -- design sensitivities ------------------------------------------------------------------------
     Column(("sensitivities.csv",), "output", "-",
            "the output differentiated: a reaction FA_x ... MB_z and a joint load axial{j}_N, shear{j}_N, "
-           "bending{j}_Nm, torsion{j}_Nm (static runs); an undamped frequency f{k}_hz (modal runs); over the "
+           "bending{j}_Nm, torsion{j}_Nm (static runs); an undamped frequency f{k}_hz and a damped frequency "
+           "fd{k}_hz (modal runs: modes 1 ... 6); over the "
            "periodic revolution (flight runs) a reaction's extreme FA_x_max ... MB_z_min, a joint load's peak "
            "|value| and amplitude {q}{j}_peak, {q}{j}_amplitude (q: bending, axial, torsion, strain) and, with "
            "&fatigue, damage_per_hour{j}, del_amplitude{j} and del_FA_x ... del_MB_z"),

@@ -13,8 +13,9 @@ circulatory part kept) and D_r = N^T D N (its skew, gyroscopic part kept).  Here
   by frequency, then the real roots; the Campbell diagram follows these by MAC from speed to
   speed;
 * :func:`modal_modes`: what the modal analysis reports (``modes.csv``): every undamped mode with
-  the damped eigenvalue of :func:`complex_modes` whose shape matches it best (mass-weighted MAC),
-  its damped frequency and damping ratio.
+  the damped eigenvalue of :func:`complex_modes` whose shape matches it best (mass-weighted MAC,
+  :func:`damped_partners`, the pairing the damped frequencies' sensitivities use too), its damped
+  frequency and damping ratio.
 
 The modal analysis, the hover modes of a flight run, the resonance margins and the Campbell
 diagram all take their modes from here; the Campbell diagram's first frequency at 0 rpm is the
@@ -167,6 +168,18 @@ def complex_modes(mats: dict, n_zero: int | None = None) -> tuple[np.ndarray, np
     return sv, shapes, oscillating, zero
 
 
+def damped_partners(undamped_shapes: np.ndarray, damped_shapes: np.ndarray, m_full: np.ndarray) -> np.ndarray:
+    """Per undamped mode (a column of ``undamped_shapes``, in q), the index of its damped mode
+    among the columns of ``damped_shapes`` (:func:`complex_modes`): the largest mass-weighted MAC.
+
+    The one pairing of the two kinds of mode: the modal analysis's damped frequency of mode k
+    (:func:`modal_modes`) and the damped frequency whose sensitivity the design optimiser takes
+    (:func:`pydriver.analyses.sensitivities.modal_sensitivities`) are the same root."""
+    if not damped_shapes.shape[1]:
+        return np.zeros(0, int)
+    return np.argmax(mac(undamped_shapes.astype(complex), damped_shapes, m_full), axis=1)
+
+
 def modal_modes(mats: dict) -> dict:
     """The modal analysis's modes: per undamped mode (ascending), its frequency, the damped
     frequency and damping ratio of the damped mode that matches it best, and its shape.
@@ -180,7 +193,9 @@ def modal_modes(mats: dict) -> dict:
     -------
     dict
         ``f_undamped_hz``, ``f_damped_hz``, ``zeta`` (nf) and ``shapes`` (nq, nf): the undamped
-        shapes in q, mass-normalised.  RunError for non-finite matrices, an unstable equilibrium
+        shapes in q, mass-normalised; ``damped_root`` (nf, complex) the eigenvalue s of each
+        mode's damped partner and ``oscillating`` (nf) whether it oscillates (a pair, not a
+        zero-stiffness or real root).  RunError for non-finite matrices, an unstable equilibrium
         or a singular M_r.
     """
     w2, z = undamped_modes(mats)
@@ -191,11 +206,12 @@ def modal_modes(mats: dict) -> dict:
                        f"({err}: the reduced mass matrix is singular)") from err
     shapes = mats["basis"] @ z
     omega = np.sqrt(w2)
-    best = np.argmax(mac(shapes.astype(complex), damped, mats["M"]), axis=1) if sv.size else np.zeros(0, int)
+    best = damped_partners(shapes, damped, mats["M"])
     s = sv[best]
     f_damped = np.where(oscillating[best], s.imag / (2.0 * np.pi), 0.0)
     size = np.abs(s)
     modal_ratio = np.sum(z * (mats["D_r"] @ z), axis=0) / (2.0 * np.where(omega > 0.0, omega, 1.0))
     zeta = np.where(oscillating[best], -s.real / np.where(size > 0.0, size, 1.0),
                     np.where(zero[best] | (omega == 0.0), 0.0, modal_ratio))
-    return {"f_undamped_hz": omega / (2.0 * np.pi), "f_damped_hz": f_damped, "zeta": zeta, "shapes": shapes}
+    return {"f_undamped_hz": omega / (2.0 * np.pi), "f_damped_hz": f_damped, "zeta": zeta, "shapes": shapes,
+            "damped_root": s, "oscillating": oscillating[best]}

@@ -25,6 +25,21 @@ with dK_r, dM_r central differences of the reduced matrices along the equilibriu
 (x + s dx/dp, p + s), each in the basis P(s) N_0 (the null-space projector at s applied to the
 base basis N_0): the core's orthonormal basis may turn or flip a column between p - h and p + h,
 P(s) N_0 varies smoothly and the pencil's eigenvalues do not depend on the basis.
+
+Damped frequencies (``fd{k}_hz``, the frequencies the resonance margins and the design
+optimiser's frequency constraint judge): the root s of the first-order state matrix
+
+    A = [[0, I], [-M_r^-1 K_r, -M_r^-1 D_r]]
+
+that is undamped mode k's damped partner (the modal analysis's pairing by MAC,
+:func:`pydriver.analyses.linear_modes.damped_partners`), f_d = Im s / 2 pi, and its derivative
+by the left and right eigenvectors w, z of A (Lancaster 1964; a simple eigenvalue of a
+non-symmetric matrix):
+
+    ds = w^H dA z / (w^H z),   dA = -[[0, 0], [M^-1 (dK - dM M^-1 K), M^-1 (dD - dM M^-1 D)]],
+
+dK_r (unsymmetric: the circulatory part stays), dD_r (the gyroscopic part stays) and dM_r the
+same differences along the tangent as above.
 """
 
 from __future__ import annotations
@@ -32,9 +47,10 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import scipy.linalg
 
 from pydriver.analyses.common import REACTION_NAMES
-from pydriver.analyses.linear_modes import symmetric_modes
+from pydriver.analyses.linear_modes import modal_modes, symmetric_modes
 from pydriver.analyses.registry import analysis_of
 from pydriver.analyses.statics import drop_pulse, unforced
 from pydriver.design import Parameter, parameters, ratio_unit, step
@@ -238,24 +254,38 @@ def _static_sensitivities(model, plans: list[Plan], q, lam) -> dict:
     return _pack(plans, names, units, values, [])
 
 
-def _reduced(m, q, lam, n0) -> tuple[np.ndarray, np.ndarray]:
-    """K_r, M_r of model m at (q, lambda) in the basis P N_0 (P the projector onto its null space)."""
+def _reduced(m, q, lam, n0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """K_r, M_r, D_r of model m at (q, lambda) in the basis P N_0 (P the projector onto its null
+    space); K_r and D_r with their skew parts."""
     mm = m.core.modal_matrices(q, lam)
     t = mm["basis"].T @ n0
-    return t.T @ mm["K_r"] @ t, t.T @ mm["M_r"] @ t
+    return t.T @ mm["K_r"] @ t, t.T @ mm["M_r"] @ t, t.T @ mm["D_r"] @ t
 
 
-def modal_sensitivities(model, plans: list[Plan], q, lam) -> dict:
-    """d(f_k)/dp of the first undamped frequencies of a modal run about its equilibrium."""
+def modal_sensitivities(model, plans: list[Plan], q, lam, modes: int = N_FREQUENCIES,
+                        below_hz: float | None = None) -> dict:
+    """d(f_k)/dp of the first undamped frequencies and d(fd_k)/dp of the damped frequencies of a
+    modal run about its equilibrium (the module doc).
+
+    Parameters
+    ----------
+    modes : int
+        The damped frequencies of the first ``modes`` modes are differentiated (the undamped ones:
+        always the first :data:`N_FREQUENCIES`).
+    below_hz : float, optional
+        Also every mode whose damped frequency lies below this [Hz], and the lowest one above (the
+        design optimiser's frequency margin: every mode up to the highest harmonic).
+    """
     with unforced(model):
-        return _modal_sensitivities(model, plans, q, lam)
+        return _modal_sensitivities(model, plans, q, lam, modes, below_hz)
 
 
-def _modal_sensitivities(model, plans: list[Plan], q, lam) -> dict:
+def _modal_sensitivities(model, plans: list[Plan], q, lam, modes: int = N_FREQUENCIES,
+                         below_hz: float | None = None) -> dict:
     mm = model.core.modal_matrices(q, lam)
     n0 = mm["basis"]
-    k0, m0 = _reduced(model, q, lam, n0)
-    k0 = 0.5 * (k0 + k0.T)                 # the undamped modes take the symmetric part
+    k_full, m0, d0 = _reduced(model, q, lam, n0)
+    k0 = 0.5 * (k_full + k_full.T)         # the undamped modes take the symmetric part
     # The modal analysis's undamped problem K_r phi = lambda M_r phi, phi^T M_r phi = 1; the
     # eigenvalues as solved (a non-positive one is a warning here, not an error).
     ev, phi = symmetric_modes(k0, m0)
@@ -272,32 +302,94 @@ def _modal_sensitivities(model, plans: list[Plan], q, lam) -> dict:
             continue
         keep.append(k)
     freqs = np.sqrt(np.maximum(ev, 0.0)) / (2.0 * np.pi)
-    names = [f"f{k + 1}_hz" for k in keep]
-    units = ["Hz"] * len(keep)
+    damped, damped_warnings = _damped_roots(mm, k_full, m0, d0, modes, below_hz)
+    warnings += damped_warnings
+    names = [f"f{k + 1}_hz" for k in keep] + [f"fd{k + 1}_hz" for k in damped]
+    units = ["Hz"] * len(names)
     dx = _tangents(model, plans, q, lam)
     values = []
     for pl, x_p in zip(plans, dx):
-        d_k = np.zeros_like(k0)
+        d_k = np.zeros_like(k_full)
         d_m = np.zeros_like(m0)
+        d_d = np.zeros_like(d0)
         for s, w, m in pl.points:
             if m is None:
-                d_k += w * k0
+                d_k += w * k_full
                 d_m += w * m0
+                d_d += w * d0
             else:
-                ks, ms = _reduced(m, q + s * pl.h * x_p[:model.nq], lam + s * pl.h * x_p[model.nq:], n0)
-                d_k += w * 0.5 * (ks + ks.T)
+                ks, ms, ds = _reduced(m, q + s * pl.h * x_p[:model.nq], lam + s * pl.h * x_p[model.nq:], n0)
+                d_k += w * ks
                 d_m += w * ms
+                d_d += w * ds
         d_k /= pl.h
         d_m /= pl.h
+        d_d /= pl.h
+        d_k_sym = 0.5 * (d_k + d_k.T)
         out = []
         for k in keep:
             v = phi[:, k]
-            d_ev = v @ (d_k - ev[k] * d_m) @ v / (v @ m0 @ v)          # Fox & Kapoor (1968)
+            d_ev = v @ (d_k_sym - ev[k] * d_m) @ v / (v @ m0 @ v)      # Fox & Kapoor (1968)
             out.append(d_ev / (8.0 * np.pi**2 * freqs[k]))              # lambda = (2 pi f)^2
+        if damped:
+            d_a = _state_matrix_difference(m0, k_full, d0, d_k, d_m, d_d)
+            out += [_damped_derivative(root, d_a) for root in damped.values()]
         values.append(np.asarray(out))
     sens = _pack(plans, names, units, values, warnings)
     sens["values"] = {f"f{k + 1}_hz": float(freqs[k]) for k in keep}      # the optimiser's objective
+    sens["values"].update({f"fd{k + 1}_hz": float(root["s"].imag / (2.0 * np.pi)) for k, root in damped.items()})
     return sens
+
+
+def _damped_roots(mats: dict, k_r, m_r, d_r, modes: int, below_hz: float | None) -> tuple[dict, list]:
+    """{mode index k: its damped root s with A's left and right eigenvectors} of the modes whose
+    damped frequency is differentiated (the first ``modes``, and those below ``below_hz``), and
+    the warnings for those that have none (not oscillating, repeated)."""
+    try:
+        partner = modal_modes(mats)
+    except RunError as err:
+        return {}, [f"the damped frequencies have no sensitivities: {err}"]
+    fd = partner["f_damped_hz"]
+    wanted = set(range(min(modes, fd.size)))
+    if below_hz is not None:
+        wanted |= set(np.flatnonzero((fd > 0.0) & (fd < below_hz)).tolist())
+        above = np.flatnonzero(fd >= below_hz)
+        if above.size:                      # and the lowest one above (it must not come down into range)
+            wanted.add(int(above[np.argmin(fd[above])]))
+    wanted = sorted(wanted)
+    nf = m_r.shape[0]
+    a = np.block([[np.zeros((nf, nf)), np.eye(nf)], [-np.linalg.solve(m_r, k_r), -np.linalg.solve(m_r, d_r)]])
+    roots, left, right = scipy.linalg.eig(a, left=True, right=True)
+    out, warnings = {}, []
+    for k in wanted:
+        if not partner["oscillating"][k]:
+            warnings.append(f"mode {k + 1} does not oscillate (overdamped or zero stiffness): its damped frequency "
+                            "has no sensitivity")
+            continue
+        s = partner["damped_root"][k]
+        distance = np.abs(roots - s)
+        order = np.argsort(distance)
+        if distance[order[1]] < REPEATED_REL * abs(s):
+            warnings.append(f"mode {k + 1}'s damped root is repeated: it has no derivative of its own")
+            continue
+        j = int(order[0])
+        out[int(k)] = {"s": roots[j], "left": left[:, j], "right": right[:, j]}
+    return out, warnings
+
+
+def _state_matrix_difference(m_r, k_r, d_r, d_k, d_m, d_d) -> tuple[np.ndarray, np.ndarray]:
+    """The lower blocks of dA (the upper ones are 0): -M^-1 (dK - dM M^-1 K), -M^-1 (dD - dM M^-1 D)."""
+    return (-np.linalg.solve(m_r, d_k - d_m @ np.linalg.solve(m_r, k_r)),
+            -np.linalg.solve(m_r, d_d - d_m @ np.linalg.solve(m_r, d_r)))
+
+
+def _damped_derivative(root: dict, d_a: tuple) -> float:
+    """d(fd)/dp = Im(ds)/2 pi of one damped root, ds = w^H dA z / (w^H z) (module doc)."""
+    w, z = root["left"], root["right"]
+    nf = z.size // 2
+    da_z = d_a[0] @ z[:nf] + d_a[1] @ z[nf:]
+    ds = (w[nf:].conj() @ da_z) / (w.conj() @ z)
+    return float(ds.imag / (2.0 * np.pi))
 
 
 def _pack(plans, names, units, values, warnings) -> dict:
