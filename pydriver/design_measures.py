@@ -97,7 +97,7 @@ class Measure:
         What it is, for the deck reference and docs/model.md.
     needs : str
         The evaluation it needs: ``'static'`` (equilibrium, reactions, joint loads), ``'modal'``
-        (also the first frequency) or ``'flight'`` (the periodic revolution of a flight deck).
+        (also the modes: the first undamped frequency) or ``'flight'`` (the periodic revolution of a flight deck).
     terms : callable
         Evaluation -> list of (value, gradient); the objective is the largest value.
     """
@@ -137,14 +137,16 @@ OBJECTIVES = {m.name: m for m in (
 
 # -- the frequency margin constraint ---------------------------------------------------------------
 
-def forbidden_bands(rpm_values: list, harmonics: int, margin_percent: float) -> list[tuple[float, float]]:
-    """The frequency intervals a margin of ``margin_percent`` from every k/rev (k = 1 ... harmonics)
-    at the operating speeds forbids, merged where they overlap (at 10 % the bands of 5/rev and
-    6/rev meet: 5 x 1.1 > 6 x 0.9).  The margin is that of :mod:`pydriver.analyses.resonance`,
-    |f - k Omega| / (k Omega)."""
+def forbidden_bands(rpm_values: list, harmonics, margin_percent: float) -> list[tuple[float, float]]:
+    """The frequency intervals a margin of ``margin_percent`` from every k/rev at the operating
+    speeds forbids, merged where they overlap (at 10 % the bands of 5/rev and 6/rev meet:
+    5 x 1.1 > 6 x 0.9).  ``harmonics``: K for k = 1 ... K, or the orders k themselves (the
+    excited harmonics, :func:`pydriver.analyses.resonance.excited_harmonics`).  The margin is
+    that of :mod:`pydriver.analyses.resonance`, |f - k Omega| / (k Omega)."""
     m = margin_percent / 100.0
+    orders = range(1, int(harmonics) + 1) if np.ndim(harmonics) == 0 else [int(k) for k in harmonics]
     bands = sorted((k * r / 60.0 * (1.0 - m), k * r / 60.0 * (1.0 + m))
-                   for r in rpm_values for k in range(1, harmonics + 1))
+                   for r in rpm_values for k in orders)
     merged = []
     for lo, hi in bands:
         if merged and lo <= merged[-1][1]:
@@ -155,7 +157,7 @@ def forbidden_bands(rpm_values: list, harmonics: int, margin_percent: float) -> 
 
 
 def allowed_gap(f_hz: float, bands: list) -> tuple[float, float]:
-    """The gap between forbidden bands the first frequency is kept in: the one holding ``f_hz``,
+    """The gap between forbidden bands a mode's frequency is kept in: the one holding ``f_hz``,
     or, from inside a band, the nearer side of it.  Crossing a harmonic is a discrete choice a
     gradient method cannot make; the designer moves the start to choose another gap."""
     edges = [0.0] + [x for band in bands for x in band] + [np.inf]

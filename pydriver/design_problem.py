@@ -21,8 +21,8 @@ from pydriver.schema import lookup
 
 #: The &design keys of the optimiser (the rest of &design, ``parameters``, also serves the
 #: sensitivities of a static or modal run).
-OPTIMISER_KEYS = ("objective", "lower", "upper", "frequency_margin_percent", "method", "max_iterations",
-                  "tolerance")
+OPTIMISER_KEYS = ("objective", "lower", "upper", "frequency_margin_percent", "starts", "frequency_levels", "method",
+                  "max_iterations", "tolerance")
 #: The rotor speed sets the harmonics: it cannot be a parameter of a frequency-margin design.
 ROTOR_SPEED_KEYS = ("loads.rotor_rpm", "rotor.rpm")
 
@@ -38,7 +38,8 @@ class Problem:
         Bounds of each parameter (deck units).
     objective : Measure
     frequency_margin_percent : float or None
-        Required margin of the first frequency from every k/rev; None: no such constraint.
+        Required margin of every excited mode's damped frequency from the excited k/rev; None: no such
+        constraint.
     method : str
         'slsqp' or 'trust-constr'.
     max_iterations : int
@@ -46,8 +47,12 @@ class Problem:
         On the scaled problem (parameters mapped to [0, 1], objective divided by its start value).
     base_analysis : str
         The analysis of each evaluation and of the optimum deck: 'flight' for a flight objective
-        (the first frequency, where the margin needs it, is that of the flight's hover state), else
-        'modal' when the first frequency is needed, else 'static'.
+        (the frequencies, where the margin needs them, are those of the flight's hover state), else
+        'modal' when a frequency is needed, else 'static'.
+    starts : int
+        The optimiser's starts (:func:`start_points`).
+    frequency_levels : int
+        Refinement levels of the frequencies the margin judges (1: the deck's n).
     """
 
     parameters: list
@@ -59,6 +64,8 @@ class Problem:
     max_iterations: int
     tolerance: float
     base_analysis: str
+    starts: int = 3
+    frequency_levels: int = 1
 
 
 def _fail(deck: Deck, key: str, reason: str):
@@ -116,7 +123,30 @@ def problem(deck: Deck) -> Problem | None:
     objective = OBJECTIVES[deck["design.objective"]]
     if objective.name == "max_damage_per_hour" and "fatigue" not in deck.groups:
         _fail(deck, "objective", "'max_damage_per_hour' needs the deck's S-N curve: add &fatigue")
+    levels = int(deck["design.frequency_levels"])
+    if levels > 1 and "cable" not in deck.groups:
+        _fail(deck, "frequency_levels", f"= {levels} refines the frequencies over n, 2n ...: that needs the "
+                                        "physical cable parameters (&cable ei, ...), not per-joint constants")
     needs_modes = objective.needs == "modal" or margin is not None
     base = "flight" if objective.needs == "flight" else "modal" if needs_modes else "static"
     return Problem(params, lower, upper, objective, None if margin is None else float(margin),
-                   deck["design.method"], int(deck["design.max_iterations"]), float(deck["design.tolerance"]), base)
+                   deck["design.method"], int(deck["design.max_iterations"]), float(deck["design.tolerance"]), base,
+                   int(deck["design.starts"]), levels)
+
+
+#: The labels of the optimiser's starts, in the order ``&design starts`` takes them.
+START_LABELS = ("deck", "all lower", "all upper")
+
+
+def start_points(prob: Problem) -> dict:
+    """{label: parameter vector} of the optimiser's starts: the deck's values, then the box's
+    corner with every parameter at its lower bound, then at its upper bound (``&design
+    starts`` of them).
+
+    Why these: a frequency margin splits the box into separate feasible regions, one per gap
+    between the forbidden bands, and a gradient method stays in the gap its start lies in.
+    Where the frequencies are monotone enough in the parameters (a shorter cable, a clamp
+    further out: stiffer), the two corners reach the gaps on either side of the band the deck
+    starts in."""
+    points = (np.array([p.value for p in prob.parameters], float), prob.lower.copy(), prob.upper.copy())
+    return dict(zip(START_LABELS[:prob.starts], points[:prob.starts]))

@@ -119,7 +119,8 @@ def _cell(value, integer: bool) -> str:
     return str(int(value)) if integer else _fmt(value)
 
 
-def _write_csv(path: Path, columns: dict, int_columns=("body", "mode", "joint"), units: dict | None = None):
+def _write_csv(path: Path, columns: dict, int_columns=("body", "mode", "joint", "iteration", "pass", "margin_mode"),
+               units: dict | None = None):
     """A table with its units in the header (``pydriver/output_columns.py``)."""
     names = list(columns)
     with open(path, "w", encoding="utf-8", newline="\n") as fh:

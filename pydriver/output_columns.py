@@ -152,13 +152,25 @@ COLUMNS = [
     Column(("sensitivities_refined.csv",), "order_observed", "-", "1: observed over 3 levels and used, 0: the "
                                                                   "expected order used"),
     # -- design optimisation (analysis = 'design') ---------------------------------------------------------
-    Column(("design_history.csv",), "iteration", "-", "0: the deck's design; then one row per optimiser iteration"),
+    Column(("design_history.csv",), "start", "-", "the optimiser's start (&design starts): 'deck' (the deck's "
+                                                   "values), 'all lower', 'all upper' (the box's corners)"),
+    Column(("design_history.csv",), "pass", "-", "1; 2: the pass from the first pass's optimum with the "
+                                                 "discretisation shift taken there (&design frequency_levels > 1)"),
+    Column(("design_history.csv",), "iteration", "-", "per start, 0: its start design; then one row per optimiser "
+                                                      "iteration"),
     Column(("design_history.csv",), "{group}.{key}", "*", "a &design parameter's value (its unit from "
                                                          "docs/deck_reference.md)"),
-    Column(("design_history.csv",), "objective", "*", "the &design objective (N or Nm or Hz, by the objective)"),
-    Column(("design_history.csv",), "f1_hz", "Hz", "first undamped frequency (with frequency_margin_percent)"),
+    Column(("design_history.csv",), "objective", "*", "the &design objective (N or Nm or Hz or 1/h, by the "
+                                                      "objective)"),
+    Column(("design_history.csv",), "f1_hz", "Hz", "first UNDAMPED frequency (with frequency_margin_percent; not "
+                                                   "what the margin judges)"),
+    Column(("design_history.csv",), "fd{k}_hz", "Hz", "DAMPED frequency of mode k, each mode the margin constrains "
+                                                      "(shifted to the converged cable with &design frequency_levels > "
+                                                      "1; blank in the rows of a start that does not constrain it)"),
     Column(("design_history.csv",), "frequency_margin_percent", "%",
-           "the first frequency's least margin from k/rev, k = 1 ... harmonics, at the operating speed(s)"),
+           "the least margin of the constrained modes' damped frequencies from the excited k/rev (&resonance "
+           "harmonics, excitation) at the operating speed(s), as resonance.csv's margin_percent"),
+    Column(("design_history.csv",), "margin_mode", "-", "the mode of that least margin"),
     # -- refinement ----------------------------------------------------------------------------------------
     Column(("refinement.csv",), "quantity", "-", "what is extrapolated (its unit in the column unit)"),
     Column(("refinement.csv",), "unit", "-", "the quantity's unit"),

@@ -248,21 +248,80 @@ def _resonance_section(block: dict) -> str:
 
 
 def _design_section(d: dict) -> str:
-    """Before and after of a design optimisation: the objective, the parameters and the frequency
-    margin at the deck's start and at the optimum (the tables above are the optimum's)."""
+    """Before and after of a design optimisation: the objective (and the life), the parameters,
+    every start and the frequency margin of every constrained mode at the deck's start and at the
+    optimum (the tables above are the optimum's); a design study's refined lives beside."""
     o = d["objective"]
     rows = [[f"objective {o['name']} [{o['unit']}]", o["start"], o["optimum"], "", ""]]
+    life = d.get("life_hours")
+    if life:
+        rows.append(["shortest fatigue life [h] (1 / damage per flight hour)",
+                     life["start"] if life["start"] is not None else "no damage",
+                     life["optimum"] if life["optimum"] is not None else "no damage", "", ""])
     rows += [[f"{name} [{p['unit']}]", p["start"], p["optimum"], f"[{_num(p['lower'])}, {_num(p['upper'])}]",
-              p["at_bound"] or ""] for name, p in d["parameters"].items()]
+              f"at the {p['at_bound']} bound" if p["at_bound"] else ""] for name, p in d["parameters"].items()]
     if "frequency_margin" in d:
         f = d["frequency_margin"]
-        rows.append(["first frequency [Hz]", f["start"]["f1_hz"], f["optimum"]["f1_hz"], "", ""])
-        rows.append(["margin from k/rev [%]", f["start"]["margin_percent"], f["optimum"]["margin_percent"],
-                     f">= {f['required_percent']:g}", "met" if f["satisfied"] else "NOT MET"])
+        if "f1_undamped_hz" in f["start"]:
+            rows.append(["first frequency, undamped [Hz]", f["start"]["f1_undamped_hz"], f["optimum"]["f1_undamped_hz"],
+                         "", "not judged"])
+        for m in f["constrained_modes"]:
+            lo, hi = f["gaps_hz"][str(m)]
+            gap = f"kept in [{_num(lo, 4)}, {_num(hi, 4) if hi is not None else 'inf'}] Hz"
+            start = f["start"]["damped_hz"].get(str(m), "")
+            rows.append([f"mode {m}, damped [Hz]", start, f["optimum"]["damped_hz"][str(m)], gap, ""])
+        if f["constrained_modes"]:
+            rows.append(["least margin from k/rev [%]", f["start"].get("margin_percent", ""),
+                         f["optimum"]["margin_percent"], f">= {f['required_percent']:g}",
+                         ("met" if f["satisfied"] else "NOT MET") + f" (mode {f['optimum']['mode']}, "
+                         f"{f['optimum']['harmonic']}/rev)"])
     verdict = ("converged" if d["converged"] else "<b>not converged</b>: the optimum is the last design, not a "
                "proven optimum")
-    return (f"<h2>Design optimisation: before and after</h2><p>{html.escape(o['doc'])}, minimised by "
-            f"{d['method']} with exact gradients in {d['iterations']} iterations ({d['runs']} runs): {verdict} "
-            f"({html.escape(d['message'])}).  The results above are those of the optimum "
-            "(<code>optimum.nml</code>).</p>"
-            + _table(["", "start", "optimum", "bounds", "note"], rows, left={0, 3, 4}))
+    starts = d.get("starts", [])
+    text = (f"<h2>Design optimisation: before and after</h2><p>{html.escape(o['doc'])}, minimised by "
+            f"{d['method']} with exact gradients from {len(starts) or 1} start(s) ({d['runs']} runs in all); the "
+            f"best, start '{html.escape(d.get('best_start', 'deck'))}', in {d['iterations']} iterations: {verdict} "
+            f"({html.escape(d['message'])}).  The optimum is {html.escape(d.get('optimum_is', 'a local optimum'))}"
+            + (f"; at a bound: {html.escape(', '.join(d['at_bound']))}" if d.get("at_bound") else "")
+            + ".  The results above are those of the optimum (<code>optimum.nml</code>).</p>")
+    if "frequency_margin" in d:
+        f = d["frequency_margin"]
+        shifted = (" shifted by its discretisation error f(converged) - f(n) (&amp;design frequency_levels = "
+                   f"{f['frequency_levels']})" if "discretisation_shift_hz" in f else "")
+        above = ", ".join(f"mode {m} {_num(v, 4)} Hz" for m, v in f.get("not_excited", {}).items())
+        text += (f"<p>Frequency margin: every mode's damped frequency{shifted} at least "
+                 f"{f['required_percent']:g} % from {html.escape(harmonics_text(f['harmonics']))} at "
+                 f"{', '.join(f'{r:g}' for r in f['operating_rpm'])} rpm, each kept in the gap between harmonics "
+                 f"where it starts; modes above {_num(f['highest_excited_hz'], 4)} Hz (one harmonic above the "
+                 "highest) are not excited, the lowest of them kept above the highest harmonic's band"
+                 + (f" (not constrained: {html.escape(above)})" if above else "") + ".</p>")
+    text += _table(["", "start", "optimum", "bounds", "note"], rows, left={0, 3, 4})
+    if starts:
+        srows = []
+        for r in starts:
+            if "error" in r:
+                srows.append([r["label"], "", "", "could not be run", html.escape(r["error"])])
+                continue
+            fm = r.get("frequency_margin", {}).get("optimum", {})
+            srows.append([r["label"], r["objective"]["start"], r["objective"]["optimum"],
+                          "converged" if r["converged"] else "not converged",
+                          (f"margin {fm['margin_percent']:.2f} % (mode {fm['mode']}); " if "margin_percent" in fm
+                           else "") + (", ".join(f"{k} at the {b} bound" for k, b in r["at_bound"].items())
+                                       or "no parameter at a bound")])
+        text += ("<p>Every start (each a local optimisation; &amp;design starts):</p>"
+                 + _table(["start", f"objective at the start [{o['unit']}]", f"at its optimum [{o['unit']}]",
+                           "verdict", "note"], srows, left={0, 3, 4}))
+    refined = d.get("refined")
+    if refined:
+        rrows = []
+        for key in ("before", "after"):
+            r = refined[key]
+            rrows.append([key, r["extrapolated_h"], r["error_estimate_h"], r["values_h"][0], r["fd1_hz"],
+                          r["fd1_error_hz"], "" if r["margin_percent"] is None else
+                          f"{r['margin_percent']:.2f} % (mode {r['margin_mode']}, {r['nearest_harmonic']}/rev; "
+                          f"{r['worst_margin_percent']:.2f} % at the edge of its error bar)"])
+        text += (f"<p>Refined (n = {', '.join(map(str, refined['before']['n']))}, Richardson; rotorcable study "
+                 f"design): the life grows by x {_num(refined['life_gain'], 3)}.</p>"
+                 + _table(["design", "life [h]", "error [h]", f"life at n = {refined['before']['n'][0]} [h]",
+                           "mode 1 damped [Hz]", "error [Hz]", "closest margin"], rrows, left={0, 6}))
+    return text

@@ -55,18 +55,7 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
         lines.append(f"  natural frequencies, undamped [Hz]: {fu}")
         lines.append(f"  damped [Hz]:                        {fd}")
     if "design" in s:
-        d = s["design"]
-        o = d["objective"]
-        lines.append(f"  design: {o['name']} {_num(o['start'])} -> {_num(o['optimum'])} {o['unit']} "
-                     f"({d['method']}, {d['iterations']} iterations, {d['runs']} runs, "
-                     f"{'converged' if d['converged'] else 'NOT converged'}: {d['message']})")
-        for name, p in d["parameters"].items():
-            bound = f" (at the {p['at_bound']} bound)" if p["at_bound"] else ""
-            lines.append(f"    {name} [{p['unit']}]: {_num(p['start'])} -> {_num(p['optimum'])}{bound}")
-        if "frequency_margin" in d:
-            f = d["frequency_margin"]
-            lines.append(f"    first frequency {_num(f['start']['f1_hz'], 4)} -> {_num(f['optimum']['f1_hz'], 4)} Hz, "
-                         f"margin {f['optimum']['margin_percent']:.1f} % (required {f['required_percent']:g} %)")
+        lines += design_lines(s["design"])
     if "decay" in s and "f_damped_hz" in s["decay"]:
         d = s["decay"]
         lines.append(f"  decay test: {_num(d['f_damped_hz'], 5)} Hz damped"
@@ -123,6 +112,53 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
         names = ", ".join(_collapse_series(sorted(p.name for p in files.values())))
         lines.append(f"  files: {' '.join(sorted(folder))}/ ({names})")
     return "\n".join(lines)
+
+
+def design_lines(d: dict) -> list[str]:
+    """A design run: objective (and life) before and after, its starts, the parameters (which sit
+    on a bound), the frequency margin of every constrained mode."""
+    o = d["objective"]
+    starts = d.get("starts", [])
+    lines = [f"  design: {o['name']} {_num(o['start'])} -> {_num(o['optimum'])} {o['unit']} "
+             f"({d['method']}, best start '{d.get('best_start', 'deck')}' of {max(len(starts), 1)}, "
+             f"{d['iterations']} iterations, {d['runs']} runs in all, "
+             f"{'converged' if d['converged'] else 'NOT converged'}: {d['message']})"]
+    life = d.get("life_hours")
+    if life:
+        text = [("no damage" if v is None else f"{_num(v, 4)} h") for v in (life["start"], life["optimum"])]
+        lines.append(f"    shortest fatigue life {text[0]} -> {text[1]} (1 / damage per flight hour)")
+    for name, p in d["parameters"].items():
+        bound = f" (at the {p['at_bound']} bound)" if p["at_bound"] else ""
+        lines.append(f"    {name} [{p['unit']}]: {_num(p['start'])} -> {_num(p['optimum'])}{bound}")
+    if "optimum_is" in d:
+        lines.append(f"    the optimum is {d['optimum_is']}")
+    for r in starts:
+        if "error" in r:
+            lines.append(f"    start '{r['label']}': could not be run")
+            continue
+        fm = r.get("frequency_margin", {}).get("optimum", {})
+        margin = (f", margin {fm['margin_percent']:.1f} % (mode {fm['mode']})" if "margin_percent" in fm else "")
+        lines.append(f"    start '{r['label']}': {_num(r['objective']['start'])} -> {_num(r['objective']['optimum'])} "
+                     f"{o['unit']}, {'converged' if r['converged'] else 'not converged'}{margin}")
+    if "frequency_margin" in d:
+        f = d["frequency_margin"]
+        lines.append(f"    frequency margin of the damped frequencies (required {f['required_percent']:g} % from "
+                     f"{harmonics_text(f['harmonics'])} at {', '.join(f'{r:g}' for r in f['operating_rpm'])} rpm): "
+                     + ("no mode below " + f"{_num(f['highest_excited_hz'], 4)} Hz" if not f["constrained_modes"] else
+                        f"least {f['start']['margin_percent']:.1f} % (mode {f['start']['mode']}) -> "
+                        f"{f['optimum']['margin_percent']:.1f} % (mode {f['optimum']['mode']}, nearest "
+                        f"{f['optimum']['harmonic']}/rev)"))
+        for key in ("start", "optimum"):
+            damped = ", ".join(f"mode {m} {_num(v, 4)}" for m, v in f[key]["damped_hz"].items())
+            undamped = (f"; first undamped {_num(f[key]['f1_undamped_hz'], 4)} Hz" if "f1_undamped_hz" in f[key]
+                        else "")
+            shifted = " (converged: shifted by f(converged) - f(n))" if "discretisation_shift_hz" in f else ""
+            lines.append(f"      {key}: damped [Hz]{shifted} {damped or '-'}{undamped}")
+        if f.get("not_excited"):
+            above = ", ".join(f"mode {m} {_num(v, 4)} Hz" for m, v in f["not_excited"].items())
+            lines.append(f"      not constrained (above {_num(f['highest_excited_hz'], 4)} Hz, one harmonic above the "
+                         f"highest): {above}")
+    return lines
 
 
 def _collapse_series(names: list[str]) -> list[str]:

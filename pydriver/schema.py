@@ -344,9 +344,23 @@ def _keys() -> list[Key]:
             doc="analysis = 'design': upper bound of each parameter (above its lower bound)"))
     add(Key("design", "frequency_margin_percent", "real", unit="%", low=0.0, high=100.0, low_open=True,
             high_open=True,
-            doc="analysis = 'design': constraint: the first frequency keeps this margin from every k/rev "
-                "(k = 1 ... &resonance harmonics) at the operating speed (&resonance operating_rpm or the "
-                "deck's rotor speed), within the gap between harmonics where it starts; default: none"))
+            doc="analysis = 'design': constraint: every mode whose damped frequency at the start lies below "
+                "(&resonance harmonics + 1)/rev keeps this margin from every excited k/rev (&resonance harmonics, "
+                "excitation) at the operating speed (&resonance operating_rpm or the deck's rotor speed), within "
+                "the gap between harmonics where it starts; the margin of the resonance check; default: none"))
+    add(Key("design", "starts", "int", default=3, low=1, high=3,
+            doc="analysis = 'design': the optimiser's starts, each a local optimisation: 1, the deck's values; 2, "
+                "also every parameter at its lower bound; 3, also every parameter at its upper bound.  The best "
+                "converged start that holds the frequency margin wins; every start is in the summary (a gradient "
+                "method finds a local optimum: with a frequency margin each start stays in the gap between "
+                "harmonics where it begins)",
+            note="the starts are the deck's values and the box's two corners; more starts are more deck runs"))
+    add(Key("design", "frequency_levels", "int", default=1, low=1, high=3,
+            doc="analysis = 'design' with frequency_margin_percent: the refinement levels of the frequencies the "
+                "margin judges: 1, those at the deck's n; 2 or 3, the Richardson value over n, 2n (, 4n) (the "
+                "cable's &cable parameters), as each mode's shift f(converged) - f(n) taken at each start and again "
+                "at its optimum, from where the optimiser runs once more",
+            note="three levels give the extrapolation an observed order; a fourth costs a modal run at 8n"))
     add(Key("design", "method", "str", default="slsqp", choices=("slsqp", "trust-constr"),
             doc="analysis = 'design': scipy.optimize.minimize method (SLSQP, Kraft 1988; or trust-constr)"))
     add(Key("design", "max_iterations", "int", default=100, low=1, high=10000,

@@ -120,7 +120,8 @@ def run_study(name: str, out: Path, inputs: Path | None = None) -> str:
     if name == "design":
         from pydriver.design_study import design_study, study_lines
         study = design_study(inputs / "uh60_part2_design_flight.nml", out)
-        return "\n".join(study_lines(study) + [f"wrote {out}/design_study.json"])
+        return "\n".join(study_lines(study) + [f"wrote {out}/ (design_study.json, summary.json, optimum.nml, "
+                                               "design_history.csv, resonance.csv, report.html)"])
     with RunDirectory(out, deck=name, kind=study_kind(name)) as run_dir:
         line = STUDIES[name](inputs, run_dir.tmp)
         run_dir.commit()

@@ -35,10 +35,13 @@ LOW, HIGH = -0.2, -0.07
 
 
 def design(objective: str, extra: dict | None = None, deck: str = "uh60_part2") -> Model:
+    """A design deck of clamp B's height.  One start (the deck's values) unless ``extra`` says
+    otherwise: these tests check one local optimisation against its reference; the starts are
+    test_several_starts_find_the_best_local_optimum's."""
     return Model.from_deck(INPUTS / f"{deck}.nml").with_changes({
         "case.analysis": "design", "design.parameters": ["clamp_b.position(3)"],
         "design.objective": f"'{objective}'", "design.lower": [LOW], "design.upper": [HIGH],
-        "design.tolerance": FTOL, **(extra or {})})
+        "design.tolerance": FTOL, "design.starts": 1, **(extra or {})})
 
 
 def largest_joint_moment(table) -> float:
@@ -89,18 +92,27 @@ def test_trust_constr_finds_the_same_optimum():
 
 
 def test_active_frequency_margin_matches_a_scan_of_feasible_designs():
-    # At 350 rpm with harmonics 1 ... 4 and a 10 % margin the first frequency must stay above
-    # 4.4 x 350/60 = 25.667 Hz (it starts at 26.25 Hz); the unconstrained optimum (25.1 Hz) is not
+    # At 350 rpm with harmonics 1 ... 4 and a 10 % margin the first damped frequency must stay above
+    # 4.4 x 350/60 = 25.667 Hz (it starts at 26.32 Hz); the unconstrained optimum (25.2 Hz) is not
     # allowed, so the constraint is active: the optimum is the feasible scan point of least moment.
+    # The margin is that of the resonance check, on the damped frequency (docs/model.md, "Resonance
+    # margins"); the scan's runs are modal analyses, which report it.
     extra = {"resonance.operating_rpm": [350.0], "resonance.harmonics": 4, "design.frequency_margin_percent": 10.0}
     result = pydriver.run_deck(design("max_joint_moment", extra))
     d = result.summary["design"]
     edge = 4 * 1.1 * 350.0 / 60.0
-    assert d["frequency_margin"]["gap_hz"] == [pytest.approx(edge), None]
-    assert d["converged"] and d["frequency_margin"]["satisfied"]
-    f1 = d["frequency_margin"]["optimum"]["f1_hz"]
-    assert f1 == pytest.approx(edge, rel=1e-6)                 # on the constraint
-    points = [(z, f, r.summary["frequencies_hz"][0]) for z, f, r in scan(modal_analysis, 131)]
+    fm = d["frequency_margin"]
+    # Mode 1 (26.3 Hz) lies below 5/rev = 29.2 Hz, the top of the harmonics: constrained; mode 2
+    # (58 Hz) is the lowest above and is kept above the highest band too (inactive).
+    assert fm["constrained_modes"] == [1, 2] and fm["frequencies"] == "damped"
+    assert fm["gaps_hz"]["1"] == [pytest.approx(edge), None]
+    assert d["converged"] and fm["satisfied"]
+    f1 = fm["optimum"]["damped_hz"]["1"]
+    # On the constraint, whose edge the optimiser holds to its feasibility tolerance x the rotor
+    # frequency inside the gap (1e-6 x 5.83 Hz = 2.3e-7 of the edge).
+    assert edge <= f1 <= edge * (1.0 + 1e-6)
+    assert fm["optimum"]["margin_percent"] >= 10.0 and fm["optimum"]["mode"] == 1
+    points = [(z, f, r.summary["damped_frequencies_hz"][0]) for z, f, r in scan(modal_analysis, 131)]
     feasible = [(z, f) for z, f, fr in points if fr >= edge]
     z_scan, f_scan = min(feasible, key=lambda p: p[1])
     z_opt = d["parameters"]["clamp_b.position(3)"]["optimum"]
@@ -109,6 +121,63 @@ def test_active_frequency_margin_matches_a_scan_of_feasible_designs():
           f"{d['objective']['optimum']:.5f} Nm, f1 = {f1:.5f} Hz")
     assert abs(z_opt - z_scan) <= step
     assert d["objective"]["optimum"] <= f_scan * (1.0 + 2.0 * FTOL)   # the boundary lies between grid points
+
+
+def test_design_margin_is_the_resonance_tables():
+    # One frequency for one purpose (issue 36): the design constraint's margin of each mode is the
+    # resonance table's at the same design, the optimum (the same damped root of the same
+    # linearisation, paired by linear_modes.damped_partners; the optimum's run solves its
+    # equilibrium again, so equal to the Newton tolerance's effect, 1e-9).
+    extra = {"resonance.operating_rpm": [350.0], "resonance.harmonics": 4, "design.frequency_margin_percent": 10.0}
+    result = pydriver.run_deck(design("max_joint_moment", extra))
+    fm = result.summary["design"]["frequency_margin"]["optimum"]
+    rows = {r["mode"]: r for r in result.summary["resonance"]["modes"]}
+    assert rows                                   # mode 1 (25.7 Hz) lies below 5/rev = 29.2 Hz
+    for mode, row in rows.items():
+        own = fm["modes"][str(mode)]
+        assert own["margin_percent"] == pytest.approx(row["margin_percent"], rel=1e-9)
+        assert own["damped_hz"] == pytest.approx(row["frequency_hz"], rel=1e-9)
+        assert own["harmonic"] == row["harmonic"]
+    least = min(rows.values(), key=lambda r: r["margin_percent"])
+    assert fm["margin_percent"] == pytest.approx(least["margin_percent"], rel=1e-9) and fm["mode"] == least["mode"]
+    assert not result.summary["resonance"]["flagged"]          # the optimum holds the margin itself
+
+
+def test_several_starts_find_the_best_local_optimum():
+    # Clamp B's height from z_B = -0.19 m, a 3 % margin from 1/rev at 1740 rpm (29 Hz): the band
+    # 28.13-29.87 Hz splits [-0.2, -0.07] m into two gaps, f_d1 above it (z_B < -0.176 m, measured
+    # 31.49 Hz at -0.19 m) and below it (24.6 Hz at -0.07 m).  From the deck's values the optimiser
+    # stops on the band's upper edge (~33.6 Nm); the corner with every parameter at its upper bound
+    # starts in the lower gap and reaches the unconstrained minimum of the dense scan
+    # (26.788504 Nm at -0.10354 m, test above; f_d1 ~25 Hz, inside that gap).  SLSQP's objective is
+    # within ftol = 1e-6 of it; 1e-5 allows for the scan's own grid.
+    position = list(Model.from_deck(INPUTS / "uh60_part2.nml").deck["clamp_b.position"])
+    position[2] = -0.19
+    extra = {"clamp_b.position": position, "resonance.operating_rpm": [1740.0], "resonance.harmonics": 1,
+             "design.frequency_margin_percent": 3.0}
+    result = pydriver.run_deck(design("max_joint_moment", {**extra, "design.starts": 3}))
+    many = result.summary
+    d = many["design"]
+    starts = {r["label"]: r for r in d["starts"]}
+    assert list(starts) == ["deck", "all lower", "all upper"] and d["best_start"] == "all upper"
+    assert d["converged"] and all(r["converged"] for r in starts.values())
+    assert d["objective"]["optimum"] == pytest.approx(26.788504, rel=1e-5)
+    assert d["objective"]["optimum"] == starts["all upper"]["objective"]["optimum"]
+    edge = 1.03 * 1740.0 / 60.0
+    for label in ("deck", "all lower"):           # both stop on the band's upper edge, far worse
+        assert starts[label]["objective"]["optimum"] > 33.0
+        assert starts[label]["frequency_margin"]["optimum"]["damped_hz"]["1"] == pytest.approx(edge, rel=1e-5)
+    assert "best of 3 local optima" in d["optimum_is"]
+    assert not any("the optimum is local" in w for w in many.get("warnings", []))
+    # One start: the deck's own local optimum, and a warning that it is local.
+    one = pydriver.run_deck(design("max_joint_moment", extra)).summary
+    assert one["design"]["objective"]["optimum"] == starts["deck"]["objective"]["optimum"]
+    assert any("the optimum is local" in w for w in one["warnings"])
+    # design_history.csv holds every start's iterations, each beginning at its own start.
+    rows = result.extra["tables"]["design_history.csv"]
+    firsts = {label: z for label, it, z in zip(rows["start"], rows["iteration"], rows["clamp_b.position(3)"])
+              if it == 0}
+    assert firsts == {"deck": -0.19, "all lower": LOW, "all upper": HIGH}
 
 
 def test_optimum_deck_runs_and_reproduces_the_objective(tmp_path):
@@ -128,7 +197,9 @@ def test_optimum_deck_runs_and_reproduces_the_objective(tmp_path):
     # Newton solve, so the same numbers to round-off.
     table = read_csv(rerun / "table.csv")
     assert largest_joint_moment(table) == pytest.approx(d["objective"]["optimum"], rel=1e-9)
-    assert summary["frequencies_hz"][0] == pytest.approx(d["frequency_margin"]["optimum"]["f1_hz"], rel=1e-9)
+    fm = d["frequency_margin"]["optimum"]
+    assert summary["frequencies_hz"][0] == pytest.approx(fm["f1_undamped_hz"], rel=1e-9)
+    assert summary["damped_frequencies_hz"][0] == pytest.approx(fm["damped_hz"]["1"], rel=1e-9)
 
 
 def test_objective_registry_largest_reaction_force():
@@ -157,6 +228,8 @@ def test_iteration_limit_is_reported_as_not_converged(tmp_path):
     ("method = 'nelder-mead'", "method", "slsqp"),
     ("max_iterations = 0", "max_iterations", ""),
     ("tolerance = 0.0", "tolerance", ""),
+    ("starts = 4", "starts", ""),
+    ("frequency_levels = 2", "frequency_levels", "physical cable parameters"),
 ])
 def test_bad_design_keys_name_group_and_key(deck_copy, text, key, reason):
     path = deck_copy("uh60_part2")
@@ -185,26 +258,27 @@ def test_optimiser_keys_refused_outside_a_design_run(deck_copy):
 
 # -- a flight objective -------------------------------------------------------------------------
 
-def hover_f1(model: Model) -> float:
-    """The first undamped frequency of a flight deck's hover state (the margin's frequency)."""
+def hover_fd1(model: Model) -> float:
+    """The first damped frequency of a flight deck's hover state (the margin's frequency)."""
     from pydriver.analyses.hover_modes import hover_model
-    return float(modal_analysis(hover_model(model)).summary["frequencies_hz"][0])
+    return float(modal_analysis(hover_model(model)).summary["damped_frequencies_hz"][0])
 
 
 def test_flight_damage_optimum_sits_on_the_frequency_edge():
     # The main job's cable (uh60_part2_design_flight.nml), the length alone in [0.5605, 0.6195] m,
     # objective the largest damage per flight hour under a 10 % margin from 1/rev ... 8/rev at
-    # 260 rpm.  The damage rises with the length over the whole range (measured on whole flight
-    # runs: 0.0155 at 0.5605 m, 0.0357 at 0.590 m, 0.0669 1/h at 0.6195 m) and the first
-    # frequency falls with it (19.55 Hz at 0.5605 m, 16.37 Hz at 0.590 m, 14.15 Hz at 0.6195 m).
-    # From the deck's 0.590 m (16.37 Hz, inside the 4/rev band 15.60-19.07 Hz, nearer its lower
-    # edge) the optimum is the shortest cable below the band: f1 = 0.9 x 4 x 260/60 = 15.6 Hz
-    # exactly.  The reference is that length by bisection on the hover state's modal analysis
-    # (no optimiser, no sensitivities).  SLSQP holds the constraint to its tolerance 1e-6 on
-    # f1 / (260/60 Hz), 4.3e-6 Hz, which is 4e-8 m at df1/dL ~ -1e2 Hz/m: bound 1e-6 m.
+    # 260 rpm, from the deck's own values (one start) at n = 11 (frequency_levels = 1).  The damage
+    # rises with the length over the whole range (measured on whole flight runs: 0.0155 at
+    # 0.5605 m, 0.0357 at 0.590 m, 0.0669 1/h at 0.6195 m) and the first damped frequency falls
+    # with it (16.22 Hz at 0.590 m).  From the deck's 0.590 m (inside the 4/rev band
+    # 15.60-19.07 Hz, nearer its lower edge) the optimum is the shortest cable below the band:
+    # fd1 = 0.9 x 4 x 260/60 = 15.6 Hz.  The reference is that length by bisection on the hover
+    # state's modal analysis (no optimiser, no sensitivities).  The optimiser holds the edge
+    # moved into the gap by its tolerance 1e-6 x 260/60 Hz = 4.3e-6 Hz, plus its own feasibility
+    # error of the same size: 1e-5 Hz, which is 1e-7 m at dfd1/dL ~ -1e2 Hz/m: bound 1e-6 m.
     model = Model.from_deck(INPUTS / "uh60_part2_design_flight.nml").with_changes(
         {"design.parameters": ["chain.total_length"], "design.lower": [0.5605], "design.upper": [0.6195],
-         "design.tolerance": FTOL})
+         "design.tolerance": FTOL, "design.starts": 1, "design.frequency_levels": 1})
     result = pydriver.run_deck(model)
     d = result.summary["design"]
     assert d["converged"] and d["frequency_margin"]["satisfied"]
@@ -212,19 +286,24 @@ def test_flight_damage_optimum_sits_on_the_frequency_edge():
     edge = 0.9 * 4 * 260.0 / 60.0
     flight = Model.from_deck(INPUTS / "uh60_part2_forward_flight_cable.nml").with_changes({"refinement.levels": 1})
     lo, hi = 0.590, 0.6195
-    assert hover_f1(flight.with_changes({"chain.total_length": lo})) > edge > \
-        hover_f1(flight.with_changes({"chain.total_length": hi}))
+    assert hover_fd1(flight.with_changes({"chain.total_length": lo})) > edge > \
+        hover_fd1(flight.with_changes({"chain.total_length": hi}))
     while hi - lo > 1e-9:
         mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if hover_f1(flight.with_changes({"chain.total_length": mid})) > edge else (lo, mid)
+        lo, hi = (mid, hi) if hover_fd1(flight.with_changes({"chain.total_length": mid})) > edge else (lo, mid)
     print(f"optimum length {length:.9f} m, bisection {0.5 * (lo + hi):.9f} m; damage "
           f"{d['objective']['start']:.5g} -> {d['objective']['optimum']:.5g} 1/h in {d['runs']} runs")
     assert abs(length - 0.5 * (lo + hi)) < 1e-6
     # The start breaks the margin: holding it costs damage (a longer cable).
     assert d["objective"]["optimum"] > d["objective"]["start"]
-    # The design's damage is that of its own flight run (summary of the optimum).
+    # The design's damage is that of its own flight run (summary of the optimum), and its life the
+    # inverse: what a designer reads.
     hot = result.summary["fatigue"]["hotspots"][0]
     assert hot["damage_per_hour"] == pytest.approx(d["objective"]["optimum"], rel=1e-9)
+    assert d["life_hours"]["optimum"] == pytest.approx(hot["life_hours"], rel=1e-9)
+    assert d["life_hours"]["start"] == 1.0 / d["objective"]["start"]
+    # One start: the summary says that the optimum is local.
+    assert any("the optimum is local" in w for w in result.summary["warnings"])
 
 
 def test_damage_objective_needs_an_sn_curve(tmp_path):

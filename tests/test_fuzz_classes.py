@@ -50,7 +50,7 @@ DESIGN_VALUES = [("parameters", v) for v in (
     "'chain.total_length', 'chain.total_length'", "'loads.gravity'", ".true.")] + [
     ("objective", "'least_mass'"), ("lower", "1.0"), ("upper", "-1.0e9, 2.0"),
     ("frequency_margin_percent", "100.0"), ("method", "'newton'"), ("max_iterations", "0"),
-    ("tolerance", "-1.0")]
+    ("tolerance", "-1.0"), ("starts", "0"), ("starts", "4"), ("frequency_levels", "5")]
 
 
 def short_base(stem: str, tmp_path):
@@ -60,6 +60,10 @@ def short_base(stem: str, tmp_path):
         changes["refinement"] = {"levels": "1"}
     if deck["case.analysis"] == "campbell":
         changes["campbell"] = {"n_speeds": "5"}
+    if deck["case.analysis"] == "design":
+        # One start at the deck's n: the classes test input handling, not the optimiser's starts and
+        # refined frequencies (tests/test_design_optimiser.py, tests/test_design_study.py do).
+        changes["design"] = {"starts": "1", "frequency_levels": "1"}
     return override_deck(INPUTS / f"{stem}.nml", tmp_path / f"base_{stem}.nml", changes)
 
 

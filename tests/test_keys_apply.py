@@ -221,6 +221,9 @@ VALUES = {
     "design.lower": ([-10.0], {}),
     "design.upper": ([10.0], {}),
     "design.frequency_margin_percent": (5.0, {}),
+    "design.starts": (1, {}),
+    # The margin on converged frequencies: refined over n, 2n, which needs the cable's parameters.
+    "design.frequency_levels": (2, {**CABLE, "design.frequency_margin_percent": 5.0}),
     "design.method": ("trust-constr", {}),
     "design.max_iterations": (1, {}),
     "design.tolerance": (0.05, {}),

@@ -1,45 +1,55 @@
-"""Design optimisation (``&case analysis = 'design'``; issue 24, item 3; docs/model.md, "Design
-optimisation").
+"""Design optimisation (``&case analysis = 'design'``; issue 24, item 3; issue 36, item 5;
+docs/model.md, "Design optimisation").
 
 Each evaluation is a whole run of the deck's base analysis at the trial parameters (the static
-equilibrium, solved from the deck's start shape; with a first frequency about it when the
-objective or the frequency margin needs one) and its exact design sensitivities
+equilibrium, solved from the deck's start shape; with the modes about it when the objective or
+the frequency margin needs them) and its exact design sensitivities
 (:mod:`pydriver.analyses.sensitivities`): the gradients of the objective and the constraints
-come from the implicit function theorem and Fox-Kapoor, not from differences of whole runs.
-scipy.optimize.minimize (SLSQP, Kraft 1988, or trust-constr) takes them with ``jac=True`` and
-constraint Jacobians, on a scaled problem: each parameter mapped to [0, 1] between its bounds,
-the objective divided by its start value, the frequency constraints by the rotor frequency.
+come from the implicit function theorem, Fox-Kapoor and the damped roots' left and right
+eigenvectors, not from differences of whole runs.  scipy.optimize.minimize (SLSQP, Kraft 1988,
+or trust-constr) takes them with ``jac=True`` and constraint Jacobians, on a scaled problem:
+each parameter mapped to [0, 1] between its bounds, the objective divided by its start value,
+the frequency constraints by the rotor frequency.
 
 A flight objective (the largest damage per flight hour, the largest strain amplitude) evaluates
 a whole flight run to its periodic revolution with its flight sensitivities
 (:mod:`pydriver.analyses.flight_sensitivities`: forward sensitivities through the DAE, the
 periodic start by the monodromy, damage with the cycle set held fixed); its frequency margin is
-that of the hover state at the flight's rotor speed (:mod:`pydriver.analyses.hover_modes`), whose
-first frequency has the modal sensitivities.
+that of the hover state at the flight's rotor speed (:mod:`pydriver.analyses.hover_modes`).
 
 A largest-of-several objective (the largest support force, the largest joint moment) is
-minimised in the epigraph form: minimise t subject to t >= term_i.  The frequency margin keeps
-the first frequency in the gap between the forbidden bands k Omega (1 +- margin) where it starts
-(:func:`pydriver.design_measures.allowed_gap`).
+minimised in the epigraph form: minimise t subject to t >= term_i.  The frequency margin
+(:mod:`pydriver.analyses.frequency_margin`) keeps every excited mode's damped frequency in the
+gap between the forbidden bands k Omega (1 +- margin) where it starts.
+
+**Several starts.**  A gradient method finds a local optimum, and with a frequency margin it
+stays in the gaps its start lies in.  The optimiser runs from each of ``&design starts`` starts
+(:func:`pydriver.design_problem.start_points`: the deck's values, every parameter at its lower
+bound, every parameter at its upper bound); the best start that converged and holds the margin
+wins, and every start is in the summary and in design_history.csv.  The optimum is the best of
+those local optima, which the summary says, with the parameters that sit on a bound.
 """
 
 from __future__ import annotations
 
 import time
 import warnings
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from pydriver.analyses.flight import flight_analysis
 from pydriver.analyses.flight_sensitivities import flight_sensitivities, worst_points_of
-from pydriver.analyses.hover_modes import hover_model, hover_modes, require_periodic_reachable
+from pydriver.analyses.frequency_margin import FrequencyMargin, damped_name, discretisation_shift, modes_of
+from pydriver.analyses.hover_modes import hover_model, require_periodic_reachable
+from pydriver.analyses.modal import modal_analysis
 from pydriver.analyses.registry import ANALYSES
-from pydriver.analyses.resonance import harmonic_margin, operating_speeds
-from pydriver.analyses.sensitivities import modal_sensitivities, plan, static_outputs, static_sensitivities
+from pydriver.analyses.sensitivities import N_FREQUENCIES, modal_sensitivities, plan, static_outputs, \
+    static_sensitivities
 from pydriver.analyses.statics import drop_pulse, equilibrium
 from pydriver.deckfile import Deck, deck_text, validate
-from pydriver.design_measures import Evaluation, allowed_gap, forbidden_bands
-from pydriver.design_problem import OPTIMISER_KEYS, Problem, problem
+from pydriver.design_measures import Evaluation
+from pydriver.design_problem import OPTIMISER_KEYS, Problem, problem, start_points
 from pydriver.errors import DeckError, RunError
 from pydriver.model import Model
 from pydriver.progress import report, stage
@@ -81,14 +91,20 @@ def parameter_changes(deck: Deck, params: list, p) -> dict:
 
 class Evaluator:
     """Whole runs of the base analysis with their sensitivities, one per distinct parameter vector
-    (the objective, the constraints and the history ask for the same point: solved once)."""
+    (the objective, the constraints and the history ask for the same point: solved once).
 
-    def __init__(self, deck: Deck, prob: Problem, frequency_shift_hz: float = 0.0):
+    ``shifts`` ({mode: (shift, error)}) is added to each mode's damped frequency where the margin
+    judges it (``&design frequency_levels``); ``top_hz``: every damped frequency below it is
+    differentiated (the margin's modes), and so are the first ``modes``."""
+
+    def __init__(self, deck: Deck, prob: Problem, top_hz: float | None = None):
         self.prob = prob
-        self.frequency_shift_hz = frequency_shift_hz
         self.deck = base_deck(deck, prob.base_analysis)
+        self.top_hz = top_hz
+        self.modes = N_FREQUENCIES
+        self.shifts: dict = {}
         self.runs = 0
-        self._cache: dict[bytes, Evaluation] = {}
+        self._cache: dict[bytes, tuple[int, Evaluation]] = {}
 
     def model_at(self, p) -> Model:
         try:
@@ -97,15 +113,36 @@ class Evaluator:
             where = ", ".join(f"{par.name} = {v:.6g}" for par, v in zip(self.prob.parameters, p))
             raise RunError(f"deck '{self.deck.name}': the design {where} is refused: {err}") from None
 
+    def modal_model_at(self, p) -> Model:
+        """The model whose modes the margin judges: the base modal deck, or a flight's hover state."""
+        model = self.model_at(p)
+        return hover_model(model) if ANALYSES[self.prob.base_analysis].periodic else model
+
     def __call__(self, p) -> Evaluation:
         p = np.asarray(p, float)
         key = p.tobytes()
-        if key not in self._cache:
-            ev = self._evaluate(p)
-            if "f1_hz" in ev.values:
-                ev.values["f1_hz"] += self.frequency_shift_hz
-            self._cache[key] = ev
-        return self._cache[key]
+        if key not in self._cache or self._cache[key][0] < self.modes:
+            self._cache[key] = (self.modes, self._evaluate(p))
+        ev = self._cache[key][1]
+        if not self.shifts:
+            return ev
+        values = dict(ev.values)
+        for mode, (shift, _) in self.shifts.items():
+            if damped_name(mode) in values:
+                values[damped_name(mode)] += shift
+        return Evaluation(ev.p, values, ev.gradients)
+
+    def _modes(self, model, who: str, state=None, plans=None) -> dict:
+        """The modal sensitivities about ``model``'s equilibrium ``state`` (q, lambda; solved here
+        when None) with ``plans`` (made here when None): the margin's and a frequency objective's
+        frequencies."""
+        q, lam = state if state is not None else equilibrium(model)[:2]
+        modal = modal_sensitivities(model, plans if plans is not None else plan(model), q, lam, self.modes,
+                                    self.top_hz)
+        if self.prob.objective.needs == "modal" and "f1_hz" not in modal["values"]:
+            raise RunError(f"deck '{self.deck.name}': the first frequency {who}has no sensitivity at this design "
+                           f"({'; '.join(modal['warnings'])}): it cannot be optimised")
+        return modal
 
     def _evaluate(self, p) -> Evaluation:
         self.runs += 1
@@ -117,20 +154,17 @@ class Evaluator:
         if ANALYSES[self.prob.base_analysis].periodic:
             return self._evaluate_flight(p)
         model = drop_pulse(self.model_at(p))      # this design's own model
-        q, lam, _ = equilibrium(model)
         plans = plan(model)
         names = [pl.parameter.name for pl in plans]
         values, gradients = {}, {}
         sens = []
+        q, lam, _ = equilibrium(model)
         if self.prob.objective.needs == "static":
             y, outputs, _ = static_outputs(model, q)
             values.update(zip(outputs, (float(v) for v in y)))
             sens.append(static_sensitivities(model, plans, q, lam))
         if ANALYSES[self.prob.base_analysis].modes == "summary":
-            modal = modal_sensitivities(model, plans, q, lam)
-            if "f1_hz" not in modal["values"]:
-                raise RunError(f"deck '{self.deck.name}': the first frequency has no sensitivity at this design "
-                               f"({'; '.join(modal['warnings'])}): it cannot be optimised or constrained")
+            modal = self._modes(model, "", (q, lam), plans)
             values.update(modal["values"])
             sens.append(modal)
         for s in sens:
@@ -140,11 +174,13 @@ class Evaluator:
 
     def _evaluate_flight(self, p) -> Evaluation:
         """A flight run to its periodic revolution with its flight sensitivities; with a frequency
-        margin, the first frequency of its hover state and that frequency's modal sensitivities."""
+        margin, the frequencies of its hover state with their modal sensitivities."""
         model = self.model_at(p)
         plans = plan(model)                      # before the run: bad parameters refused first
         # A march that cannot end within max_revolutions is refused before it runs (issue 35).
-        require_periodic_reachable(model, hover_modes(model))
+        hover = hover_model(model)
+        hover_run = modal_analysis(hover)
+        require_periodic_reachable(model, hover_run)
         run = flight_analysis(model)
         orbit = run.extra["orbit"]
         # The run's own fatigue analysis found each joint's worst point around the jacket: the
@@ -156,15 +192,10 @@ class Evaluator:
         gradients = {out: np.array([row[n] for n in names])
                      for out, row in sens["summary"]["d_output_d_parameter"].items()}
         if self.prob.frequency_margin_percent is not None:
-            hover = hover_model(model)
-            q, lam, _ = equilibrium(hover)
-            modal = modal_sensitivities(hover, plan(hover), q, lam)
-            if "f1_hz" not in modal["values"]:
-                raise RunError(f"deck '{self.deck.name}': the first frequency of the hover state has no sensitivity "
-                               f"at this design ({'; '.join(modal['warnings'])}): it cannot be constrained")
-            values["f1_hz"] = modal["values"]["f1_hz"]
-            row = modal["summary"]["d_output_d_parameter"]["f1_hz"]
-            gradients["f1_hz"] = np.array([row[n] for n in names])
+            modal = self._modes(hover, "of the hover state ", (hover_run.extra["q"], hover_run.extra["lambda"]))
+            values.update(modal["values"])
+            for out, row in modal["summary"]["d_output_d_parameter"].items():
+                gradients[out] = np.array([row[n] for n in names])
         return Evaluation(p, values, gradients)
 
 
@@ -174,33 +205,126 @@ def design_run(model, run_dir=None) -> Result:
     return design_analysis(model)
 
 
-def design_analysis(model, frequency_shift_hz: float = 0.0) -> Result:
+@dataclass
+class StartRun:
+    """One start's local optimisation (one pass, or two with ``&design frequency_levels`` > 1)."""
+
+    label: str
+    p_start: np.ndarray
+    ev_start: Evaluation | None = None          #: at the start (the first pass's shifts)
+    ev_opt: Evaluation | None = None            #: at its optimum (the last pass's shifts)
+    gaps: dict = field(default_factory=dict)    #: {mode: (low, high)} the margin keeps
+    shifts: list = field(default_factory=list)  #: each pass's {mode: (shift, error)}
+    success: bool = False                       #: the optimiser's own verdict (the last pass)
+    satisfied: bool = True                      #: the margin holds at its optimum
+    message: str = ""
+    iterations: int = 0
+    runs: int = 0
+    error: str | None = None                    #: a start that could not be run
+
+    @property
+    def converged(self) -> bool:
+        return self.error is None and self.success and self.satisfied
+
+
+def design_analysis(model) -> Result:
     """Minimise the deck's objective over its parameters within their bounds (and the frequency
-    margin); the result is that of the base analysis at the optimum, with summary['design'],
-    design_history.csv and optimum.nml.
-
-    ``frequency_shift_hz`` is added to the first frequency wherever the margin judges it (the
-    discretisation correction f1(converged) - f1(n) of :mod:`pydriver.design_study`, so that the
-    converged cable, not the n-body model, keeps the margin); 0: the deck's n as it is."""
-    from scipy.optimize import BFGS, Bounds, NonlinearConstraint, minimize
-
+    margin) from each of its starts; the result is that of the base analysis at the best local
+    optimum, with summary['design'], design_history.csv and optimum.nml."""
     t0 = time.perf_counter()
     prob = problem(model.deck)
-    evaluate = Evaluator(model.deck, prob, frequency_shift_hz)
+    evaluate = Evaluator(model.deck, prob)
+    points = start_points(prob)
+    margin = None
+    if prob.frequency_margin_percent is not None:
+        margin = FrequencyMargin(evaluate.model_at(points["deck"]), prob.frequency_margin_percent)
+        evaluate.top_hz = margin.top_hz
+    history: list[dict] = []
+    starts = []
+    for label, p0 in points.items():
+        run = StartRun(label, p0)
+        runs_before = evaluate.runs
+        try:
+            _optimise_from(run, prob, evaluate, margin, model, history)
+        except RunError as err:
+            run.error = str(err)
+        run.runs = evaluate.runs - runs_before
+        starts.append(run)
+    ran = [r for r in starts if r.error is None]
+    if not ran:
+        raise RunError(starts[0].error)
+    best = _best(ran, prob)
+
+    from pydriver.analyses import run_single
+    from pydriver.analyses.resonance import attach_margins
+    p_opt = best.ev_opt.p
+    optimum_model = evaluate.model_at(p_opt)
+    optimum = run_single(optimum_model)
+    if margin is not None and best.shifts:
+        attach_margins(optimum_model, optimum, shifts=best.shifts[-1])
+    else:
+        attach_margins(optimum_model, optimum)
+    block = _summary_block(prob, starts, best, margin, evaluate.runs)
+    notes = list(optimum.summary.get("warnings", []))
+    notes += _notes(prob, starts, best, block)
+    summary = dict(optimum.summary)
+    summary.update(analysis="design", base_analysis=prob.base_analysis, design=block,
+                   wall_time_s=time.perf_counter() - t0)
+    summary.pop("warnings", None)
+    if notes:
+        summary["warnings"] = notes
+    header = (f"The optimum of design deck '{model.name}' (rotorcable, analysis = 'design'): objective "
+              f"{prob.objective.name} = {block['objective']['optimum']:.10g} {prob.objective.unit}, converged: "
+              f"{str(block['converged']).lower()}; the best of {len(starts)} start(s) "
+              f"({', '.join(r.label for r in starts)}): '{best.label}'.\n"
+              f"A plain {prob.base_analysis} deck: rotorcable run optimum.nml")
+    # The optimum's own run (its shapes for the plots and the report's animation), with the tables
+    # a design writes: its history and the optimum's resonance margins (the design's margin).
+    extra = dict(optimum.extra)
+    extra["tables"] = {k: v for k, v in extra.get("tables", {}).items() if k == "resonance.csv"}
+    extra["units"] = {k: v for k, v in extra.get("units", {}).items() if k == "resonance.csv"}
+    columns, units = _history_columns(history, prob)
+    extra["tables"]["design_history.csv"] = columns
+    extra["units"]["design_history.csv"] = units
+    extra["texts"] = {"optimum.nml": deck_text(optimum_model.deck, header)}
+    return Result(summary=summary, table=optimum.table, timeseries=optimum.timeseries, extra=extra)
+
+
+def _optimise_from(run: StartRun, prob: Problem, evaluate: Evaluator, margin, model, history: list) -> None:
+    """One start: the margin's modes and gaps at the start, then the optimiser; with
+    ``frequency_levels`` > 1 each pass judges the margin with the discretisation shift taken at
+    the pass's start (the second pass starts at the first's optimum, with the shift there)."""
+    p = run.p_start
+    passes = 2 if margin is not None and prob.frequency_levels > 1 else 1
+    for k in range(passes):
+        if margin is not None and prob.frequency_levels > 1:
+            evaluate.shifts = {}
+            modes = list(run.gaps) if run.gaps else modes_of(evaluate(p))
+            evaluate.shifts = discretisation_shift(evaluate.modal_model_at(p), prob.frequency_levels, modes,
+                                                   float(model.deck["refinement.expected_order"]))
+            run.shifts.append(dict(evaluate.shifts))
+        ev = evaluate(p)
+        if k == 0:
+            run.ev_start = ev
+            if margin is not None:
+                run.gaps = margin.gaps_at(ev)
+                evaluate.modes = max([evaluate.modes, *run.gaps])
+        res, p = _minimise(prob, evaluate, p, margin, run, history, k + 1)
+        run.iterations += int(getattr(res, "nit", 0))
+        run.success, run.message = bool(res.success), str(res.message)
+    run.ev_opt = evaluate(p)
+    if margin is not None:
+        run.satisfied = margin.holds(run.ev_opt, run.gaps)
+    evaluate.shifts = {}
+
+
+def _minimise(prob: Problem, evaluate: Evaluator, p0, margin, run: StartRun, history: list, pass_no: int):
+    """One scipy.optimize.minimize from ``p0``; returns its result and the parameters it ends at."""
+    from scipy.optimize import BFGS, Bounds, NonlinearConstraint, minimize
+
     lower, upper = prob.lower, prob.upper
     span = upper - lower
     n = len(prob.parameters)
-    p0 = np.array([par.value for par in prob.parameters])
-    start_model = evaluate.model_at(p0)
-    speeds, harmonics, bands = [], 0, []
-    if prob.frequency_margin_percent is not None:
-        speeds = [r for r in operating_speeds(start_model) if r > 0.0]
-        if not speeds:
-            model.deck.fail("design", "frequency_margin_percent",
-                            "needs an operating rotor speed: the deck's rotor does not turn; set &resonance "
-                            "operating_rpm (or &loads rotor_rpm / &rotor rpm)")
-        harmonics = int(model.deck["resonance.harmonics"])
-        bands = forbidden_bands(speeds, harmonics, prob.frequency_margin_percent)
 
     def p_of(z):
         """The parameters of a scaled point; a bound is its deck value exactly (-0.181 + 0.04 is
@@ -212,8 +336,6 @@ def design_analysis(model, frequency_shift_hz: float = 0.0) -> Result:
     objective0 = prob.objective.evaluate(ev0)[0]
     scale = abs(objective0) if objective0 != 0.0 else 1.0
     epigraph = len(prob.objective.terms(ev0)) > 1
-    gap = allowed_gap(ev0.value("f1_hz"), bands) if bands else None
-    f_scale = min(speeds) / 60.0 if speeds else 1.0
     width = n + (1 if epigraph else 0)
 
     def objective(z):
@@ -225,36 +347,34 @@ def design_analysis(model, frequency_shift_hz: float = 0.0) -> Result:
         return value / scale, grad * span / scale
 
     def constraint_rows(z):
-        """g(z) >= 0 and its Jacobian: the epigraph's t - term_i, then the frequency gap."""
+        """g(z) >= 0 and its Jacobian: the epigraph's t - term_i, then each mode's frequency gap."""
         ev = evaluate(p_of(z))
         values, rows = [], []
         if epigraph:
             for v, g in prob.objective.terms(ev):
                 values.append(z[n] - v / scale)
                 rows.append(np.concatenate([-g * span / scale, [1.0]]))
-        if gap is not None:
-            f1, d_f1 = ev.value("f1_hz"), np.concatenate([ev.grad("f1_hz") * span, np.zeros(width - n)])
-            if gap[0] > 0.0:
-                values.append((f1 - gap[0]) / f_scale)
-                rows.append(d_f1 / f_scale)
-            if np.isfinite(gap[1]):
-                values.append((gap[1] - f1) / f_scale)
-                rows.append(-d_f1 / f_scale)
+        if margin is not None:
+            v, r = margin.rows(ev, run.gaps, span, width, prob.tolerance)
+            values += v
+            rows += r
         return np.array(values), np.array(rows).reshape(len(values), width)
-
-    def margin_percent(ev) -> float:
-        return min(harmonic_margin(ev.value("f1_hz"), 0.0, r, harmonics)["margin_percent"] for r in speeds)
-
-    history = []
 
     def record(z):
         ev = evaluate(p_of(z))
-        if history and all(history[-1][p.name] == v for p, v in zip(prob.parameters, ev.p)):
+        last = history[-1] if history else None
+        if last is not None and last["start"] == run.label and last["pass"] == pass_no and \
+                all(last[p.name] == v for p, v in zip(prob.parameters, ev.p)):
             return                       # the same design again (the final callback): not a new row
-        row = {"iteration": len(history), **dict(zip((p.name for p in prob.parameters), ev.p)),
-               "objective": prob.objective.evaluate(ev)[0]}
-        if speeds:
-            row.update(f1_hz=ev.value("f1_hz"), frequency_margin_percent=margin_percent(ev))
+        iteration = sum(1 for row in history if row["start"] == run.label)
+        row = {"start": run.label, "pass": pass_no, "iteration": iteration,
+               **dict(zip((p.name for p in prob.parameters), ev.p)), "objective": prob.objective.evaluate(ev)[0]}
+        if margin is not None:
+            state = margin.state(ev, run.gaps)
+            row["f1_hz"] = state.get("f1_undamped_hz")
+            row.update({damped_name(int(m)): f for m, f in state["damped_hz"].items()})
+            row["frequency_margin_percent"] = state.get("margin_percent")
+            row["margin_mode"] = state.get("mode")
         history.append(row)
         report(f"design: iteration {row['iteration']}, {prob.objective.name} = {row['objective']:.6g} "
                f"{prob.objective.unit}" + (f", frequency margin {row['frequency_margin_percent']:.2f} % (required "
@@ -285,71 +405,137 @@ def design_analysis(model, frequency_shift_hz: float = 0.0) -> Result:
                            constraints=cons if n_cons else (), callback=callback,
                            options={"maxiter": prob.max_iterations, "gtol": prob.tolerance,
                                     "xtol": prob.tolerance})
-    p_opt = p_of(res.x)
-    ev_opt = evaluate(p_opt)
     record(res.x)
+    return res, p_of(res.x)
 
-    from pydriver.analyses import run_single
-    optimum_model = evaluate.model_at(p_opt)
-    optimum = run_single(optimum_model)
-    block = _summary_block(prob, res, ev0, ev_opt, evaluate.runs, int(getattr(res, "nit", len(history) - 1)))
-    notes = list(optimum.summary.get("warnings", []))
-    if speeds:
-        block["frequency_margin"] = {
-            "required_percent": prob.frequency_margin_percent, "operating_rpm": speeds, "harmonics": harmonics,
-            "gap_hz": [gap[0], gap[1] if np.isfinite(gap[1]) else None],
-            "start": {"f1_hz": ev0.value("f1_hz"), "margin_percent": margin_percent(ev0)},
-            "optimum": {"f1_hz": ev_opt.value("f1_hz"), "margin_percent": margin_percent(ev_opt)},
-            "discretisation_shift_hz": frequency_shift_hz}
-        # The constraint as the optimiser holds it: the gap's edges to its feasibility tolerance
-        # (SLSQP's acc, trust-constr's gtol) on the scaled frequency f / f_scale.
-        slack = prob.tolerance * f_scale
-        met = gap[0] - slack <= ev_opt.value("f1_hz") <= gap[1] + slack
-        block["frequency_margin"]["satisfied"] = bool(met)
-        if not met:
-            block["converged"] = False
-            notes.append(f"design: the first frequency {ev_opt.value('f1_hz'):.4g} Hz at the last design is "
-                            f"only {margin_percent(ev_opt):.2f} % from a rotor harmonic, less than the required "
-                            f"{prob.frequency_margin_percent:g} % (&design frequency_margin_percent)")
-    if not res.success:
-        notes.append(f"design: the optimiser ({prob.method}) did not converge in {block['iterations']} "
-                        f"iterations ({block['message']}): optimum.nml holds its last design, which is not "
-                        "shown to be an optimum (&design max_iterations, tolerance)")
-    summary = dict(optimum.summary)
-    summary.update(analysis="design", base_analysis=prob.base_analysis, design=block,
-                   wall_time_s=time.perf_counter() - t0)
-    summary.pop("warnings", None)
-    if notes:
-        summary["warnings"] = notes
-    header = (f"The optimum of design deck '{model.name}' (rotorcable, analysis = 'design'): objective "
-              f"{prob.objective.name} = {block['objective']['optimum']:.10g} {prob.objective.unit}, converged: "
-              f"{str(block['converged']).lower()}.\nA plain {prob.base_analysis} deck: rotorcable run optimum.nml")
-    units = {"iteration": "-", "objective": prob.objective.unit, "f1_hz": "Hz", "frequency_margin_percent": "%"}
+
+def _best(ran: list, prob: Problem) -> StartRun:
+    """The best converged start that holds the margin; else the best that holds it; else the
+    first (the deck's)."""
+    def value(r):
+        return prob.objective.evaluate(r.ev_opt)[0]
+    for pool in ([r for r in ran if r.converged], [r for r in ran if r.satisfied]):
+        if pool:
+            return min(pool, key=value)
+    return ran[0]
+
+
+def _history_columns(history: list, prob: Problem) -> tuple[dict, dict]:
+    """design_history.csv's columns (every start's rows; a mode one start does not constrain is
+    blank in its rows) and their units."""
+    names = []
+    for row in history:
+        names += [k for k in row if k not in names]
+    modes = sorted((k for k in names if k.startswith("fd")), key=lambda k: int(k[2:-3]))
+    order = [k for k in names if not k.startswith("fd") and k not in ("frequency_margin_percent", "margin_mode")]
+    order += modes + [k for k in ("frequency_margin_percent", "margin_mode") if k in names]
+    columns = {k: [row.get(k) for row in history] for k in order}
+    units = {"start": "-", "pass": "-", "iteration": "-", "objective": prob.objective.unit, "f1_hz": "Hz",
+             "frequency_margin_percent": "%", "margin_mode": "-", **{k: "Hz" for k in modes}}
     units.update({p.name: p.unit for p in prob.parameters})
-    columns = {k: np.array([row[k] for row in history]) for k in history[0]}
-    extra = {k: v for k, v in optimum.extra.items() if k in ("q", "lambda", "modes", "mode_shapes_q")}
-    extra.update(tables={"design_history.csv": columns}, units={"design_history.csv": units},
-                 texts={"optimum.nml": deck_text(optimum_model.deck, header)})
-    if optimum.timeseries is not None:
-        extra["orbit"] = optimum.extra.get("orbit")
-    return Result(summary=summary, table=optimum.table, timeseries=optimum.timeseries, extra=extra)
+    return columns, units
 
 
-def _summary_block(prob: Problem, res, ev0: Evaluation, ev_opt: Evaluation, runs: int, iterations: int) -> dict:
-    """summary['design'] without the frequency margin."""
+def _parameters(prob: Problem, p) -> dict:
+    return {par.name: float(v) for par, v in zip(prob.parameters, p)}
+
+
+def _at_bound(prob: Problem, i: int, value: float) -> str | None:
+    # Within 1e-9 of the range of a bound is on it (SLSQP stops at round-off from an active bound).
+    near = 1.0e-9 * (prob.upper[i] - prob.lower[i])
+    return ("lower" if value <= prob.lower[i] + near else "upper" if value >= prob.upper[i] - near else None)
+
+
+def _life(damage: float) -> float | None:
+    """The fatigue life [h] of a damage per flight hour (None: no damage, an infinite life)."""
+    return 1.0 / damage if damage > 0.0 else None
+
+
+def _start_block(prob: Problem, r: StartRun, margin) -> dict:
+    """One start in summary['design']['starts']."""
+    out = {"label": r.label, "start": _parameters(prob, r.p_start)}
+    if r.error is not None:
+        return {**out, "converged": False, "error": r.error, "runs": r.runs}
+    out.update(optimum=_parameters(prob, r.ev_opt.p),
+               objective={"start": float(prob.objective.evaluate(r.ev_start)[0]),
+                          "optimum": float(prob.objective.evaluate(r.ev_opt)[0])},
+               converged=r.converged, optimiser_converged=r.success, message=r.message, iterations=r.iterations,
+               runs=r.runs,
+               at_bound={par.name: b for i, par in enumerate(prob.parameters)
+                         if (b := _at_bound(prob, i, r.ev_opt.p[i])) is not None})
+    if margin is not None:
+        out["frequency_margin"] = {"satisfied": r.satisfied, "start": margin.state(r.ev_start, r.gaps),
+                                   "optimum": margin.state(r.ev_opt, r.gaps)}
+    return out
+
+
+def _summary_block(prob: Problem, starts: list, best: StartRun, margin, runs: int) -> dict:
+    """summary['design']."""
+    deck = starts[0]
+    ev0, ev_opt = deck.ev_start, best.ev_opt
+    if ev0 is None:                      # the deck's own start could not be run: the best one's start
+        ev0 = best.ev_start
     params = {}
     for i, par in enumerate(prob.parameters):
-        # Within 1e-9 of the range of a bound is on it (SLSQP stops at round-off from an active bound).
-        near = 1.0e-9 * (prob.upper[i] - prob.lower[i])
-        at = ("lower" if ev_opt.p[i] <= prob.lower[i] + near else
-              "upper" if ev_opt.p[i] >= prob.upper[i] - near else None)
         params[par.name] = {"unit": par.unit, "start": float(ev0.p[i]), "optimum": float(ev_opt.p[i]),
-                            "lower": float(prob.lower[i]), "upper": float(prob.upper[i]), "at_bound": at}
-    return {"objective": {"name": prob.objective.name, "unit": prob.objective.unit, "doc": prob.objective.doc,
-                          "start": float(prob.objective.evaluate(ev0)[0]),
-                          "optimum": float(prob.objective.evaluate(ev_opt)[0])},
-            "parameters": params, "method": prob.method, "tolerance": prob.tolerance,
-            "max_iterations": prob.max_iterations, "iterations": int(iterations), "runs": int(runs),
-            "converged": bool(res.success), "message": str(res.message),
-            "gradients": "exact design sensitivities of the base analysis (implicit function theorem; "
-                         "Fox-Kapoor for the frequency): docs/model.md, \"Design sensitivities\""}
+                            "lower": float(prob.lower[i]), "upper": float(prob.upper[i]),
+                            "at_bound": _at_bound(prob, i, ev_opt.p[i])}
+    objective = {"name": prob.objective.name, "unit": prob.objective.unit, "doc": prob.objective.doc,
+                 "start": float(prob.objective.evaluate(ev0)[0]),
+                 "optimum": float(prob.objective.evaluate(ev_opt)[0])}
+    local = (f"the best of {len(starts)} local optima ({', '.join(r.label for r in starts)}; &design starts): "
+             if len(starts) > 1 else "a local optimum from the deck's values alone (&design starts = 1): ")
+    local += ("a gradient method finds a local optimum, and other starts may find a better one"
+              if len(starts) == 1 else "other starts may still find a better one")
+    block = {"objective": objective, "parameters": params,
+             "at_bound": [name for name, p in params.items() if p["at_bound"]],
+             "best_start": best.label, "optimum_is": local,
+             "starts": [_start_block(prob, r, margin) for r in starts],
+             "method": prob.method, "tolerance": prob.tolerance, "max_iterations": prob.max_iterations,
+             "iterations": int(best.iterations), "runs": int(runs), "converged": bool(best.converged),
+             "message": best.message,
+             "gradients": "exact design sensitivities of the base analysis (implicit function theorem; Fox-Kapoor "
+                          "for undamped and the state matrix's left and right eigenvectors for damped frequencies): "
+                          "docs/model.md, \"Design sensitivities\""}
+    if prob.objective.unit == "1/h":
+        # A designer reads a life: the shortest fatigue life is 1 / the largest damage per flight hour.
+        block["life_hours"] = {"start": _life(objective["start"]), "optimum": _life(objective["optimum"])}
+    if margin is not None:
+        fm = margin.summary()
+        fm.update(constrained_modes=sorted(best.gaps),
+                  gaps_hz={str(m): [lo, hi if np.isfinite(hi) else None] for m, (lo, hi) in sorted(best.gaps.items())},
+                  start=margin.state(ev0, deck.gaps or best.gaps), optimum=margin.state(ev_opt, best.gaps),
+                  satisfied=bool(best.satisfied), frequency_levels=prob.frequency_levels)
+        fm["not_excited"] = {str(m): ev_opt.value(damped_name(m)) for m in modes_of(ev_opt)
+                             if m not in best.gaps and ev_opt.value(damped_name(m)) > 0.0}
+        if best.shifts:
+            fm["discretisation_shift_hz"] = {str(m): v[0] for m, v in sorted(best.shifts[-1].items())}
+            fm["discretisation_shift_error_hz"] = {str(m): v[1] for m, v in sorted(best.shifts[-1].items())}
+        block["frequency_margin"] = fm
+    return block
+
+
+def _notes(prob: Problem, starts: list, best: StartRun, block: dict) -> list[str]:
+    """The design's warnings: a start that failed, a margin not held, an optimiser that did not
+    converge, an optimum that is one start's."""
+    notes = []
+    for r in starts:
+        if r.error is not None:
+            notes.append(f"design: start '{r.label}' could not be run: {r.error}")
+    if len(starts) == 1:
+        at = block["at_bound"]
+        notes.append("design: the optimum is local (one start, &design starts = 1): other starts may find a better "
+                     "one" + (f"; at a bound: {', '.join(at)}" if at else ""))
+    if not best.satisfied:
+        fm = block["frequency_margin"]["optimum"]
+        notes.append(f"design: mode {fm['mode']} ({fm['damped_hz'][str(fm['mode'])]:.4g} Hz damped) at the last design "
+                     f"is only {fm['margin_percent']:.2f} % from {fm['harmonic']}/rev, less than the required "
+                     f"{prob.frequency_margin_percent:g} % (&design frequency_margin_percent)")
+    if not best.success:
+        notes.append(f"design: the optimiser ({prob.method}) did not converge from start '{best.label}' in "
+                     f"{best.iterations} iterations ({best.message}): optimum.nml holds its last design, which is not "
+                     "shown to be an optimum (&design max_iterations, tolerance)")
+    elif not best.converged:
+        notes.append("design: no start converged to a design that holds the frequency margin: optimum.nml holds "
+                     f"start '{best.label}''s last design")
+    return notes
