@@ -245,10 +245,29 @@ def _memory_budget(deck: Deck):
 def _fatigue(deck: Deck):
     if "fatigue" not in deck.groups:
         return
-    for key in ("sn_exponent", "sn_reference_amplitude", "sn_reference_cycles"):
-        if not deck.has(f"fatigue.{key}"):
-            deck.fail("fatigue", key, "is required: the S-N curve has no default (it is the cable's, from its "
-                                      "fatigue tests)")
+    if deck["fatigue.sn_file"]:
+        # The table is the curve; sn_exponent may stay, as the DELs' exponent.
+        for key in ("sn_reference_amplitude", "sn_reference_cycles"):
+            if deck.has(f"fatigue.{key}"):
+                deck.fail("fatigue", key, "give the S-N curve once: Basquin's parameters or the table of sn_file")
+    else:
+        for key in ("sn_exponent", "sn_reference_amplitude", "sn_reference_cycles"):
+            if not deck.has(f"fatigue.{key}"):
+                deck.fail("fatigue", key, "is required: the S-N curve has no default (it is the cable's, from its "
+                                          "fatigue tests); or give it as a table (sn_file)")
+    method = deck["fatigue.mean_stress"]
+    if method in ("goodman", "gerber") and not deck.has("fatigue.ultimate"):
+        deck.fail("fatigue", "ultimate", f"is required with mean_stress = '{method}': the ultimate value S_u of the "
+                                         f"{deck['fatigue.sn_quantity']} (its strain or moment at break)")
+    if deck["design.parameters"] is not None:
+        # The flight and dynamic sensitivities differentiate Basquin's damage of the uncorrected
+        # amplitudes (pydriver/analyses/flight_sensitivities.py).
+        if method != "none":
+            deck.fail("fatigue", "mean_stress", "the design sensitivities of the damage hold no mean-stress "
+                                                "correction: mean_stress = 'none' with &design parameters")
+        if deck["fatigue.sn_file"]:
+            deck.fail("fatigue", "sn_file", "the design sensitivities of the damage need Basquin's S-N curve "
+                                            "(sn_exponent, sn_reference_amplitude, sn_reference_cycles)")
 
 
 def _limits(deck: Deck):

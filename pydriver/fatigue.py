@@ -1,4 +1,4 @@
-"""Fatigue post-processing of load histories: rainflow cycles, Basquin S-N curve, Miner damage.
+"""Fatigue post-processing of load histories: rainflow cycles, Basquin or tabulated S-N curve, Miner damage.
 
 Cycles are counted with the ``rainflow`` package, which implements the three-point rainflow
 algorithm of ASTM E1049-85, section 5.4.4, and reports half cycles with a count of 0.5. Damage
@@ -110,6 +110,91 @@ class SNCurve:
         with np.errstate(over="ignore"):
             n[damaging] = self.reference_cycles * (a[damaging] / self.reference_amplitude) ** (-self.exponent)
         return n
+
+
+@dataclass
+class TabulatedSNCurve:
+    """S-N curve given as points (amplitude, cycles to failure), e.g. from a fatigue test report.
+
+    Between the points, log N is interpolated linearly in log S_a (each segment a Basquin
+    curve); beyond the first and the last point the end segments are extended (a cycle above
+    the highest tested amplitude fails sooner, one below the lowest still does damage: the
+    extrapolation is conservative where the test data end without a run-out).  The endurance
+    cut-off, if any, is given separately: amplitudes at or below ``endurance_amplitude`` do no
+    damage (for a table that ends at a run-out, its last amplitude).
+
+    Parameters
+    ----------
+    amplitudes : array_like
+        Cycle amplitudes S_a > 0, strictly decreasing as ``cycles`` increase.
+    cycles : array_like
+        Cycles to failure N > 0 at those amplitudes, strictly increasing; at least 2 points.
+    endurance_amplitude : float, optional
+        Amplitudes at or below it do no damage (default 0: none).
+    exponent : float, optional
+        The exponent m of damage-equivalent amplitudes; default the least-squares slope of the
+        table in log-log axes, -d log N / d log S_a.
+
+    Raises
+    ------
+    ValueError
+        Fewer than two points, a value not finite and > 0, or not monotonic.
+    """
+
+    amplitudes: np.ndarray
+    cycles: np.ndarray
+    endurance_amplitude: float = 0.0
+    exponent: float | None = None
+
+    def __post_init__(self):
+        a = np.asarray(self.amplitudes, dtype=float).ravel()
+        n = np.asarray(self.cycles, dtype=float).ravel()
+        if a.size != n.size or a.size < 2:
+            raise ValueError(f"an S-N table needs at least two points of amplitude and cycles "
+                             f"(got {a.size} amplitudes, {n.size} cycle counts)")
+        if not (np.all(np.isfinite(a)) and np.all(np.isfinite(n)) and np.all(a > 0.0) and np.all(n > 0.0)):
+            raise ValueError("S-N table: every amplitude and cycle count must be finite and > 0")
+        order = np.argsort(n)
+        a, n = a[order], n[order]
+        if np.any(np.diff(n) <= 0.0) or np.any(np.diff(a) >= 0.0):
+            raise ValueError("S-N table: the amplitude must fall strictly as the cycles to failure rise "
+                             "(one point per cycle count)")
+        self.amplitudes, self.cycles = a, n
+        self._log_a, self._log_n = np.log(a[::-1]), np.log(n[::-1])       # increasing log amplitude
+        endurance = float(self.endurance_amplitude)
+        if not math.isfinite(endurance) or endurance < 0.0:
+            raise ValueError(f"SN table: endurance_amplitude must be finite and >= 0, got {self.endurance_amplitude!r}")
+        self.endurance_amplitude = endurance
+        if self.exponent is None:
+            slope = np.polyfit(np.log(a), np.log(n), 1)[0]
+            self.exponent = float(-slope)
+        self.exponent = _positive_finite("SN table exponent", self.exponent)
+
+    def log_cycles_to_failure(self, amplitude) -> np.ndarray:
+        """log N at amplitudes > 0 (no cut-off): the log-log interpolation, end segments extended."""
+        x = np.log(np.asarray(amplitude, dtype=float))
+        la, ln = self._log_a, self._log_n
+        inside = np.interp(x, la, ln)
+        low = ln[0] + (x - la[0]) * (ln[1] - ln[0]) / (la[1] - la[0])
+        high = ln[-1] + (x - la[-1]) * (ln[-1] - ln[-2]) / (la[-1] - la[-2])
+        return np.where(x < la[0], low, np.where(x > la[-1], high, inside))
+
+    def cycles_to_failure(self, amplitude) -> np.ndarray:
+        """Cycles to failure at the given amplitude(s); ``inf`` at or below the cut-off."""
+        a = np.asarray(amplitude, dtype=float)
+        if not np.all(np.isfinite(a)) or np.any(a < 0.0):
+            raise ValueError("cycles_to_failure: amplitudes must be finite and >= 0")
+        damaging = a > self.endurance_amplitude
+        n = np.full(a.shape, np.inf)
+        with np.errstate(over="ignore"):
+            n[damaging] = np.exp(self.log_cycles_to_failure(a[damaging]))
+        return n
+
+    def describe(self, unit: str = "") -> str:
+        """The curve in words, for the fatigue description."""
+        return (f"the S-N table of {self.amplitudes.size} points (amplitude {self.amplitudes[-1]:g} ... "
+                f"{self.amplitudes[0]:g}{unit} at {self.cycles[0]:g} ... {self.cycles[-1]:g} cycles), log-log "
+                "interpolated")
 
 
 @dataclass
@@ -234,14 +319,14 @@ def cycles(signal, periodic: bool = False) -> Cycles:
     return Cycles(ranges=r, means=m, counts=c)
 
 
-def miner_damage(cyc: Cycles, sn: SNCurve) -> float:
+def miner_damage(cyc: Cycles, sn: "SNCurve | TabulatedSNCurve") -> float:
     """Palmgren-Miner damage sum D = sum(n_i / N(S_a,i)).
 
     Parameters
     ----------
     cyc : Cycles
         Counted cycles (:func:`cycles`).
-    sn : SNCurve
+    sn : SNCurve or TabulatedSNCurve
         S-N curve on the amplitude; cycles at or below its endurance cut-off add nothing.
 
     Returns
@@ -260,6 +345,15 @@ def miner_damage(cyc: Cycles, sn: SNCurve) -> float:
     if not np.any(damaging):
         return 0.0
     a, n = a[damaging], cyc.counts[damaging]
+    if isinstance(sn, TabulatedSNCurve):
+        # log D = log sum n exp(-log N(a)), with the largest term factored out.
+        terms = np.log(n) - sn.log_cycles_to_failure(a)
+        top = float(np.max(terms))
+        log_damage = top + math.log(float(np.sum(np.exp(terms - top))))
+        if log_damage >= _LOG_MAX:
+            raise ValueError(f"miner_damage: damage exceeds the float range (largest amplitude {float(np.max(a)):g} "
+                             f"against the S-N table's {sn.amplitudes[0]:g} ... {sn.amplitudes[-1]:g}): check the units")
+        return math.exp(log_damage)
     # n / N(a) = n (a / S_ref)^m / N_ref with the largest amplitude factored out, in logs:
     #   log D = m log(a_max / S_ref) - log N_ref + log sum n (a / a_max)^m,
     # every term finite for positive finite parameters (the sum is at least the largest

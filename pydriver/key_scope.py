@@ -298,6 +298,10 @@ SCOPES: tuple[Scope, ...] = (
           condition="in a static or modal run with a stream (stream_velocity, forward_speed) or a turning "
                     "rotor (drag is quadratic in the velocity through the air)"),
     Scope(("fatigue",), ("dynamic", "flight")),
+    Scope(("fatigue.ultimate",), when=lambda deck, a: deck["fatigue.mean_stress"] in ("goodman", "gerber"),
+          condition="with &fatigue mean_stress = 'goodman' or 'gerber'"),
+    Scope(("fatigue.walker_gamma",), when=lambda deck, a: deck["fatigue.mean_stress"] == "walker",
+          condition="with &fatigue mean_stress = 'walker'"),
     Scope(("limits.jacket_strain",), ("static", "modal", "dynamic", "flight")),
     Scope(("limits.fatigue_life_hours",), ("dynamic", "flight")),
     Scope(("design.parameters",), ("static", "modal", "dynamic", "flight"), design="acts"),

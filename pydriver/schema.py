@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 from pydriver.analyses.registry import ANALYSES
 from pydriver.design_measures import OBJECTIVES
+from pydriver.mean_stress import METHODS as MEAN_STRESS_METHODS
 
 INF = math.inf
 
@@ -312,6 +313,25 @@ def _keys() -> list[Key]:
                  "cost rainflow passes in proportion"))
     add(Key("fatigue", "hotspots", "int", default=5, low=1, high=2000,
             doc="joints listed in the hotspot table (at most every joint: 2000, the largest n_bodies)"))
+    add(Key("fatigue", "sn_file", "str",
+            doc="the S-N curve as a table instead of Basquin's parameters: a CSV file (path relative to the deck) "
+                "with columns amplitude (unit of sn_quantity) and cycles (to failure), at least 2 rows, the amplitude "
+                "falling as the cycles rise; log-log interpolated, the end segments extended, sn_endurance_amplitude "
+                "the cut-off; sn_exponent (optional) is then the DELs' exponent, default the table's log-log slope "
+                "(docs/model.md, \"Fatigue\")"))
+    add(Key("fatigue", "mean_stress", "str", default="none", choices=MEAN_STRESS_METHODS,
+            doc="mean-stress correction of every counted cycle: none; Goodman S_a/(1 - S_m/S_u); Gerber "
+                "S_a/(1 - (S_m/S_u)^2) (both: a compressive mean taken as 0); Walker S_max^(1-gamma) S_a^gamma "
+                "(Dowling, Mechanical Behavior of Materials, 4th ed., ch. 9-10; docs/model.md, \"Fatigue\")"))
+    add(Key("fatigue", "ultimate", "real", unit="-, Nm", low=1.0e-6, high=1.0e6,
+            doc="the ultimate value S_u of the counted quantity for Goodman and Gerber: the jacket's strain at break "
+                "(sn_quantity = 'strain') or the bending moment that breaks the cable (Nm)",
+            note="jacket strains at break (1e-3 ... 10) and breaking moments (1e-3 ... 1e3 Nm) lie well inside it"))
+    add(Key("fatigue", "walker_gamma", "real", default=0.5, low=0.0, high=1.0,
+            doc="Walker's exponent gamma (0.5: Smith-Watson-Topper; Dowling reports 0.4 ... 0.8 for steels and "
+                "aluminium alloys); 1 ignores the mean",
+            note="gamma = 1 is no mean-stress effect and gamma = 0 the maximum alone: the relation is defined "
+                 "between them"))
     # &limits ------------------------------------------------------------------------------
     add(Key("limits", "jacket_strain", "real", unit="-", low=1.0e-6, high=1.0,
             doc="largest allowed jacket strain (0.01 = 1 %): a run whose largest |strain| exceeds it is flagged "

@@ -23,6 +23,7 @@ too).  The runs are short (0.05 s of dynamics, 16 samples per revolution, 3 Camp
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -80,6 +81,7 @@ SETTLE = {"solver.static_method": "settle", "solver.t_end": 3.0, "solver.settle_
           "springs.d_beta": 0.5}
 EQUILIBRIUM_START = {"case.start": "equilibrium"}
 TIP = "tip"                       #: placeholder: the base deck's start tip point (a point the chain reaches)
+DATA = Path(__file__).parent / "data"
 
 def base_deck(analysis: str):
     return deck_from_text(BASE.format(analysis=analysis, extra=EXTRA[analysis]), f"{analysis}.nml")
@@ -212,6 +214,11 @@ VALUES = {
     "fatigue.sn_endurance_amplitude": (1.0, FATIGUE),
     "fatigue.circumferential_points": (8, FATIGUE),
     "fatigue.hotspots": (1, FATIGUE),
+    "fatigue.sn_file": (str(DATA / "sn_table.csv"), {**FATIGUE, "fatigue.sn_reference_amplitude": REMOVE,
+                                                     "fatigue.sn_reference_cycles": REMOVE}),
+    "fatigue.mean_stress": ("goodman", {**FATIGUE, "fatigue.ultimate": 0.02}),
+    "fatigue.ultimate": (0.01, {**FATIGUE, "fatigue.mean_stress": "goodman", "fatigue.ultimate": 0.02}),
+    "fatigue.walker_gamma": (0.8, {**FATIGUE, "fatigue.mean_stress": "walker"}),
     "limits.jacket_strain": (1.0e-6, {}),
     "limits.fatigue_life_hours": (1.0e9, FATIGUE),
     "design.parameters": (["clamp_a.gamma_deg", "chain.total_length"],

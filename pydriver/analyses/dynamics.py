@@ -136,9 +136,11 @@ def dynamic_analysis(model, run_dir=None, restart=None) -> Result:
         if timeseries is None:
             raise DeckError(model.name, "fatigue", "sn_exponent", "fatigue of a run too large to keep in memory "
                             "is not supported: a larger dt_out or a shorter t_end")
-        from pydriver.analyses.fatigue_loads import fatigue_of_run
-        summary["fatigue"], columns = fatigue_of_run(model, timeseries, periodic=False)
+        from pydriver.analyses.fatigue_loads import fatigue_of_run, fatigue_points
+        jacket = fatigue_points(model, timeseries, periodic=False)
+        summary["fatigue"], columns = fatigue_of_run(model, timeseries, periodic=False, jacket=jacket)
         result.extra.setdefault("tables", {})["fatigue.csv"] = columns
+        result.extra["fatigue_points"] = jacket      # every jacket point (a spectrum's run-up)
     if timeseries is not None:
         beta = np.array([np.min(np.abs(np.sin(np.radians(timeseries[f"beta{j + 1}_deg"]))))
                          for j in range(model.n_bodies)])

@@ -17,7 +17,7 @@ import numpy as np
 
 from pydriver.analyses.clamp_reach import reach_error
 from pydriver.analyses.common import REACTION_NAMES, base_summary, reactions, rotor_period
-from pydriver.analyses.fatigue_loads import fatigue_of_run
+from pydriver.analyses.fatigue_loads import fatigue_of_run, fatigue_points
 from pydriver.analyses.record_columns import chunk_columns
 from pydriver.analyses.shooting import periodic_start
 from pydriver.analyses.singularity import ClosestApproach
@@ -166,6 +166,8 @@ def flight_analysis(model, run_dir=None) -> Result:
         extra["period_s"] = period
     if "fatigue" in model.deck.groups:
         report("flight: fatigue (rainflow around the jacket at every joint)")
-        summary["fatigue"], columns = fatigue_of_run(model, ts, periodic=True)
+        jacket = fatigue_points(model, ts, periodic=True)
+        summary["fatigue"], columns = fatigue_of_run(model, ts, periodic=True, jacket=jacket)
         extra["tables"] = {"fatigue.csv": columns}
+        extra["fatigue_points"] = jacket            # every jacket point, for a usage spectrum
     return Result(summary=summary, timeseries=ts, extra=extra, files=files)

@@ -147,7 +147,7 @@ def run_refined(model, run_dir, analyse):
     # flight's time series need not stay in memory).
     entry = analysis_of(model)
     diagram = entry.refinement == "diagram"
-    coarse, walls = [], []
+    coarse, walls, jackets = [], [], []
     floquet = model.deck["solver.floquet"] if entry.periodic else False
     floquet_base = None
     for k, m in enumerate(models):
@@ -166,6 +166,9 @@ def run_refined(model, run_dir, analyse):
             except DeckError as exc:
                 raise DeckError(exc.deck, exc.group, exc.key, f"{exc.reason} ({name})") from exc
         walls.append(time.perf_counter() - t_level)
+        # Every jacket point of every level (small: n x points values each): a usage spectrum adds
+        # them over its regimes level by level (pydriver/analyses/spectrum_damage.py).
+        jackets.append(result.extra.get("fatigue_points"))
         if floquet and k == 0:
             floquet_base = (result.summary.get("floquet"), result.extra.get("tables", {}).get("floquet.csv"))
         if k < levels - 1:
@@ -179,6 +182,8 @@ def run_refined(model, run_dir, analyse):
     else:
         refinement, warnings = extrapolate([*coarse, result.summary], ns, expected)
     result.summary["refinement"] = refinement
+    if all(j is not None for j in jackets):
+        result.extra["fatigue_points_levels"] = jackets
     if floquet_base is not None and floquet_base[0] is not None:
         result.summary["floquet"] = dict(floquet_base[0], n_bodies=models[0].n_bodies)
         result.extra.setdefault("tables", {})["floquet.csv"] = floquet_base[1]
