@@ -44,6 +44,7 @@ def check(deck: Deck) -> None:
     _limits(deck)
     _refinement(deck)
     _resonance(deck)
+    _analysis_rules(deck)
     _memory_budget(deck)
     # The optimiser's keys first: on another analysis they are refused by their own names, before
     # &design parameters is found missing.
@@ -295,3 +296,9 @@ def _refinement(deck: Deck):
         deck.fail("refinement", "levels", "refining n needs the physical cable parameters (&cable ei, ...), not the thesis's per-joint constants")
     if deck.has("chain.body_length"):
         deck.fail("chain", "body_length", "refinement subdivides a uniform chain: give total_length")
+
+
+def _analysis_rules(deck: Deck):
+    """The deck's analysis's own rules, where its registry row names them (a usage spectrum's
+    &spectrum: pydriver.usage_spectrum.check)."""
+    analysis_of(deck).check_deck(deck)

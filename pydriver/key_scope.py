@@ -16,9 +16,11 @@ Reading the table:
   optionally a condition on the deck (``when``) with its words (``condition``); a key acts when
   every scope naming it or its group holds;
 * ``analysis = 'design'`` evaluates its base analysis (static, modal or flight:
-  :attr:`pydriver.design_problem.Problem.base_analysis`), so a key acts in a design run when it
-  acts in that analysis, unless its scope says otherwise (``Scope.design``: the optimiser's own
-  keys act in design runs only);
+  :attr:`pydriver.design_problem.Problem.base_analysis`) and ``analysis = 'spectrum'`` is made of
+  flight runs (its registry row's ``evaluates``), so a key acts in such a composite run when it
+  acts in that analysis, unless its scope says otherwise (``Scope.acts_in``: the optimiser's own
+  keys act in design runs only, ``&spectrum`` in spectrum runs; ``Scope.ignored_in``: a spectrum
+  reports no resonance margins);
 * only keys the deck sets to a value other than their default are reported (a deck that spells
   out a default says nothing), and a group the deck opens without keys (``&drag /``, which
   switches drag on) is judged by its group's scope.
@@ -45,11 +47,14 @@ from pydriver.schema import GROUPS, lookup
 
 #: Every analysis of ``&case analysis`` (pydriver.analyses.registry).
 ANALYSES = tuple(REGISTERED)
-#: The analyses that are one run each (an optimiser evaluates one of them again and again).
-RUNS = tuple(a.name for a in REGISTERED.values() if not a.optimises)
+#: The analyses made of runs of another (an optimiser evaluates one of them again and again; a
+#: usage spectrum runs a flight per regime): a key acts in them as in that base analysis.
+COMPOSITE = tuple(a.name for a in REGISTERED.values() if a.optimises or a.evaluates is not None)
+#: The analyses that are one run each.
+RUNS = tuple(a for a in REGISTERED if a not in COMPOSITE)
 #: Analyses with a time integration (a static or modal one only when it settles; a diagram over
 #: speeds solves each equilibrium by Newton).
-INTEGRATING = tuple(a.name for a in REGISTERED.values() if not a.optimises and not a.sweeps_speed)
+INTEGRATING = tuple(a for a in RUNS if not REGISTERED[a].sweeps_speed)
 
 
 @dataclass(frozen=True)
@@ -66,31 +71,39 @@ class Scope:
         ``when(deck, analysis) -> bool``: they act only when it holds (None: always).
     condition : str
         ``when`` in words, completing "acts only ...": ``"with &solver static_method = 'settle'"``.
-    design : str
-        In a design run: ``'base'``, as in its base analysis (whose runs it evaluates);
-        ``'acts'``, in the design run itself (``when`` is asked with ``'design'``); ``'ignored'``.
+    acts_in : tuple of str
+        Analyses of :data:`COMPOSITE` in whose runs the keys act themselves (``when`` is asked
+        with that analysis): the optimiser's keys in a design run, ``&spectrum`` in a spectrum
+        run.
+    ignored_in : tuple of str
+        Analyses of :data:`COMPOSITE` that ignore the keys although their base analysis reads
+        them (a usage spectrum reports no resonance margins of its regimes).
+
+    In any other analysis of :data:`COMPOSITE` the keys act as in its base analysis (whose runs
+    it is made of).
     """
 
     keys: tuple
     analyses: tuple = RUNS
     when: Callable | None = None
     condition: str = ""
-    design: str = "base"
+    acts_in: tuple = ()
+    ignored_in: tuple = ()
 
     def names(self, group: str, key: str | None) -> bool:
         """Whether this scope covers ``group.key`` (``key`` None: the group itself)."""
         return group in self.keys or (key is not None and f"{group}.{key}" in self.keys)
 
     def reason(self, deck: Deck, analysis: str, base: str) -> str | None:
-        """Why the keys do not act in an ``analysis`` run (None: they do); ``base`` is a design
-        run's base analysis (else ``analysis`` itself)."""
-        if REGISTERED[analysis].optimises and self.design != "base":
-            acting = self.design == "acts"
+        """Why the keys do not act in an ``analysis`` run (None: they do); ``base`` is the base
+        analysis of a composite run (design, spectrum), else ``analysis`` itself."""
+        if analysis in COMPOSITE and (analysis in self.acts_in or analysis in self.ignored_in):
+            acting = analysis in self.acts_in
         else:
             analysis = base
             acting = analysis in self.analyses
         if not acting:
-            return f"to {_runs(self.analyses + (('design',) if self.design == 'acts' else ()))} only"
+            return f"to {_runs(self.analyses + self.acts_in)} only"
         if self.when is not None and not self.when(deck, analysis):
             return f"only {self.condition}"
         return None
@@ -280,20 +293,22 @@ SCOPES: tuple[Scope, ...] = (
     Scope(("resonance",), ("modal", "campbell", "flight"),
           lambda deck, a: a == "design" or REGISTERED[a].sweeps_speed or _operating_speed(deck, a),
           "in modal, Campbell and flight runs with an operating speed (a turning rotor at a constant speed, "
-          "&resonance operating_rpm or, in a Campbell run, &campbell operating_rpm)", design="acts"),
+          "&resonance operating_rpm or, in a Campbell run, &campbell operating_rpm)", acts_in=("design",),
+          ignored_in=("spectrum",)),
     # the margins themselves need an operating speed; which harmonics excite also picks a Campbell
     # diagram's crossings, which it reports over its operating range (0 ... rpm_max by default)
     Scope(("resonance.margin_percent", "resonance.harmonics", "resonance.operating_rpm"),
           ("modal", "campbell", "flight"), lambda deck, a: a == "design" or _operating_speed(deck, a),
           "in modal, Campbell and flight runs with an operating speed (a turning rotor at a constant speed, "
-          "&resonance operating_rpm or, in a Campbell run, &campbell operating_rpm)", design="acts"),
-    Scope(("resonance.margin_percent",), ("modal", "campbell", "flight"), design="ignored"),
+          "&resonance operating_rpm or, in a Campbell run, &campbell operating_rpm)", acts_in=("design",),
+          ignored_in=("spectrum",)),
+    Scope(("resonance.margin_percent",), ("modal", "campbell", "flight"), ignored_in=("design", "spectrum")),
     Scope(("resonance.harmonics", "resonance.operating_rpm", "resonance.excitation", "resonance.blades"),
           ("modal", "campbell", "flight"),
           lambda deck, a: a != "design" or deck["design.frequency_margin_percent"] is not None,
-          "with &design frequency_margin_percent in a design run", design="acts"),
+          "with &design frequency_margin_percent in a design run", acts_in=("design",), ignored_in=("spectrum",)),
     Scope(("resonance.blades",), when=lambda deck, a: deck["resonance.excitation"] == "blade_passage",
-          condition="with &resonance excitation = 'blade_passage'", design="acts"),
+          condition="with &resonance excitation = 'blade_passage'", acts_in=("design",)),
     Scope(("drag",), when=_stream_or_turning,
           condition="in a static or modal run with a stream (stream_velocity, forward_speed) or a turning "
                     "rotor (drag is quadratic in the velocity through the air)"),
@@ -304,12 +319,23 @@ SCOPES: tuple[Scope, ...] = (
           condition="with &fatigue mean_stress = 'walker'"),
     Scope(("limits.jacket_strain",), ("static", "modal", "dynamic", "flight")),
     Scope(("limits.fatigue_life_hours",), ("dynamic", "flight")),
-    Scope(("design.parameters",), ("static", "modal", "dynamic", "flight"), design="acts"),
+    Scope(("design.parameters",), ("static", "modal", "dynamic", "flight"), acts_in=("design",),
+          ignored_in=("spectrum",)),
     Scope(("design.objective", "design.lower", "design.upper", "design.frequency_margin_percent", "design.method",
            "design.max_iterations", "design.tolerance", "design.starts", "design.frequency_levels"), (),
-          design="acts"),
+          acts_in=("design",)),
     Scope(("design.frequency_levels",), (), lambda deck, a: deck["design.frequency_margin_percent"] is not None,
-          "with &design frequency_margin_percent", design="acts"),
+          "with &design frequency_margin_percent", acts_in=("design",)),
+    # A usage spectrum's own keys; its regimes are flight runs, its start a dynamic run of its own
+    # (pydriver/usage_spectrum.py).
+    Scope(("spectrum",), (), acts_in=("spectrum",)),
+    Scope(("spectrum.blade_harmonics", "spectrum.blade_fit_tolerance_deg"), (),
+          lambda deck, a: deck["spectrum.blade_file"] is not None and any(str(f).strip()
+                                                                          for f in deck["spectrum.blade_file"]),
+          "with a blade table (&spectrum blade_file)", acts_in=("spectrum",)),
+    Scope(("spectrum.start_stops_per_flight", "spectrum.runup_time"), (),
+          lambda deck, a: bool(deck["spectrum.flights_per_hour"]), "with flights (&spectrum flights_per_hour > 0)",
+          acts_in=("spectrum",)),
     Scope(("refinement.expected_order",), when=lambda deck, a: deck["refinement.levels"] > 1,
           condition="with &refinement levels > 1"),
     Scope(("output.table_language",), ("static", "modal")),
@@ -335,6 +361,8 @@ SCOPES: tuple[Scope, ...] = (
           "with &solver static_method = 'settle'"),
     Scope(("solver.periodic_method", "solver.floquet", "solver.periodic_tol", "solver.max_revolutions",
            "solver.samples_per_rev"), ("flight",)),
+    # A regime reports its damage, not its stability (pydriver/usage_spectrum.py, base_flight_deck).
+    Scope(("solver.floquet",), ("flight",), ignored_in=("spectrum",)),
 )
 
 
@@ -360,8 +388,13 @@ def describe(group: str, key: str) -> str:
     where, conditions = set(ANALYSES), []
     for scope in SCOPES:
         if scope.names(group, key):
-            design = scope.design == "acts" or (scope.design == "base" and set(scope.analyses) == set(RUNS))
-            where &= set(scope.analyses) | ({"design"} if design else set())
+            # A composite run takes part where the key acts in its base analysis: a spectrum's is
+            # flight; a design run's varies (static, modal, flight), so it takes part where every
+            # run does.
+            composite = {a for a in COMPOSITE if a not in scope.ignored_in and (
+                REGISTERED[a].evaluates in scope.analyses if REGISTERED[a].evaluates is not None
+                else set(scope.analyses) == set(RUNS))}
+            where &= set(scope.analyses) | set(scope.acts_in) | composite
             conditions += [scope.condition] if scope.condition else []
     runs = _runs(tuple(a for a in ANALYSES if a in where)) if where else "no runs"
     if conditions:
@@ -371,8 +404,11 @@ def describe(group: str, key: str) -> str:
 
 
 def base_analysis(deck: Deck) -> str:
-    """The analysis whose keys act: the deck's, or a design run's base analysis (its evaluations)."""
+    """The analysis whose keys act: the deck's, or a composite run's base analysis (a design run's
+    evaluations, a spectrum's flights)."""
     analysis = deck["case.analysis"]
+    if REGISTERED[analysis].evaluates is not None:
+        return REGISTERED[analysis].evaluates
     if not REGISTERED[analysis].optimises:
         return analysis
     from pydriver.design_problem import problem
@@ -383,7 +419,7 @@ def reason(deck: Deck, group: str, key: str | None, analysis: str | None = None)
     """Why ``&group key`` does not act in the deck's run (None: it acts).  ``key`` None asks
     about the group itself (opened without keys)."""
     analysis = analysis or deck["case.analysis"]
-    base = base_analysis(deck) if REGISTERED[analysis].optimises else analysis
+    base = base_analysis(deck) if analysis in COMPOSITE else analysis
     for scope in SCOPES:
         if scope.names(group, key):
             why = scope.reason(deck, analysis, base)

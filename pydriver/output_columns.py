@@ -127,6 +127,31 @@ COLUMNS = [
     Column(FAT, "n_cycles", "-", "rainflow cycles per record (half cycles count 1/2)"),
     Column(FAT, "del_amplitude", "*", "damage-equivalent amplitude (unit of &fatigue sn_quantity)"),
     Column(FAT, "{q}_{s}", "*", "statistic s (min, max, mean, amplitude) of load q over the record"),
+    # -- fatigue at every jacket point (a usage spectrum's regime record) -----------------------------
+    Column(("fatigue_points.csv",), "n_bodies", "-", "the refinement level: its number of bodies"),
+    Column(("fatigue_points.csv",), "joint", "-", "joint number, from clamp A"),
+    Column(("fatigue_points.csv",), "angle_deg", "deg", "the point's angle around the jacket from the child body's e1"),
+    Column(("fatigue_points.csv",), "damage_per_record", "-", "Miner damage of the record (one revolution of a "
+                                                               "flight, the whole run-up)"),
+    Column(("fatigue_points.csv",), "closed_damage_per_record", "-",
+           "the damage of the record's closed (full) cycles alone (a flight: all of them)"),
+    Column(("fatigue_points.csv",), "minimum", "*", "smallest value of the point's history (unit of &fatigue "
+                                                    "sn_quantity)"),
+    Column(("fatigue_points.csv",), "maximum", "*", "largest value of the point's history"),
+    Column(("fatigue_points.csv",), "first", "*", "first value (the run-up: the rest state, rotor stopped)"),
+    Column(("fatigue_points.csv",), "records_per_hour", "1/h", "records per flight hour (a flight: revolutions "
+                                                               "per hour)"),
+    # -- usage spectrum (analysis = 'spectrum') -----------------------------------------------------------
+    Column(("spectrum.csv",), "regime", "-", "the regime (&spectrum regimes), then 'ground-air-ground' (one cycle "
+                                             "per flight) and 'start-stops' (the rotor's run-ups and run-downs)"),
+    Column(("spectrum.csv",), "time_share", "-", "the regime's share of the flight time (blank: not a regime)"),
+    Column(("spectrum.csv",), "damage_per_hour_in_regime", "1/h",
+           "Miner damage per hour flown in the regime, at the spectrum's worst point"),
+    Column(("spectrum.csv",), "damage_per_flight_hour", "1/h",
+           "its damage per flight hour of the spectrum there (time share x damage per hour in regime)"),
+    Column(("spectrum.csv",), "damage_share", "-", "its share of the spectrum's damage there"),
+    Column(("spectrum.csv",), "life_alone_hours", "h", "the life if only this were flown: 1 / its largest damage "
+                                                       "per hour over the cable (blank: no damage)"),
     # -- design sensitivities ------------------------------------------------------------------------
     Column(("sensitivities.csv",), "output", "-",
            "the output differentiated: a reaction FA_x ... MB_z and a joint load axial{j}_N, shear{j}_N, "

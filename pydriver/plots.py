@@ -408,6 +408,45 @@ def plot_envelopes(result, out: Path):
     yield _save(fig, out, "envelopes.png")
 
 
+def plot_spectrum(result, out: Path):
+    """A usage spectrum: the damage per flight hour at the worst point by regime, the ground-air-ground
+    cycles and the start-stops (log scale), and the life at each refinement level with its
+    extrapolation and error bar."""
+    plt = _plt()
+    sp = result.summary["spectrum"]
+    if sp["life_hours"] is None:
+        return
+    rows = [(r["name"], r["damage_per_flight_hour"]) for r in sp["regimes"]]
+    if sp["flights_per_hour"] > 0.0:
+        total = sp["damage_per_flight_hour"]
+        rows += [(name, sp["damage_shares"][name] * total) for name in ("ground-air-ground", "start-stops")]
+    floor = sp["damage_per_flight_hour"] * 1e-6            # what is below a millionth of the total is shown at it
+    fig, ax = plt.subplots(1, 2, figsize=(12, 0.8 + 0.45 * max(len(rows), 5)), constrained_layout=True,
+                           gridspec_kw={"width_ratios": [3, 2]})
+    y = np.arange(len(rows))
+    ax[0].barh(y, [max(v, floor) for _, v in rows], color="tab:blue")
+    ax[0].set_xscale("log")
+    ax[0].set_yticks(y, [name for name, _ in rows])
+    ax[0].invert_yaxis()
+    ax[0].set_xlabel("damage per flight hour at the worst point [1/h]")
+    ax[0].grid(True, axis="x")
+    levels = sp["levels"]
+    n = [lv["n"] for lv in levels]
+    ax[1].plot(n, [lv["life_hours"] for lv in levels], "o-", label="life at n")
+    if "life_extrapolated_hours" in sp:
+        e, err = sp["life_extrapolated_hours"], sp["life_error_hours"]
+        ax[1].axhspan(e - err, e + err, color="0.85", label="converged +- error")
+        ax[1].axhline(e, color="k", ls="--", label=f"converged {e:.4g} h")
+    ax[1].set_xscale("log", base=2)
+    ax[1].set_xticks(n, [str(k) for k in n])
+    ax[1].set_xlabel("bodies n [-]")
+    ax[1].set_ylabel("life [h]")
+    ax[1].grid(True)
+    ax[1].legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    fig.suptitle(f"{result.summary['case']}: damage over the usage spectrum at {sp['worst_point']['where']}")
+    yield _save(fig, out, "spectrum.png")
+
+
 def _campbell_band(values):
     """(low, high) of a two-value band in either order; None for any other count (the deck
     checks its own bands; a summary from elsewhere may not hold two values)."""
@@ -526,6 +565,9 @@ def _plots(result, out: Path):
         return
     if "campbell" in sections:
         yield from plot_campbell(result, out)
+        return
+    if "spectrum" in sections:
+        yield from plot_spectrum(result, out)
         return
     if result.timeseries is not None:
         ts = result.timeseries
@@ -657,5 +699,9 @@ def caption(name: str, summary: dict) -> str:
                      "(dashed).",
         "frequencies.png": "Natural frequencies of the modes about the equilibrium, undamped (o) and damped (x), "
                            "on a log scale.",
+        "spectrum.png": "Usage spectrum: the damage per flight hour at the worst jacket point from each regime "
+                        "(its share of the flight time times its damage per hour there), from the ground-air-ground "
+                        "cycles and from the rotor's start-stops, on a log scale (below a millionth of the total: "
+                        "drawn at it); and the life at each number of bodies n with its extrapolation and error bar.",
     }
     return captions.get(name, name)

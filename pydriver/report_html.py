@@ -142,6 +142,8 @@ def html_report(result, model=None, timeseries_path=None) -> str:
         parts.append("<h2>Shape and loads per body and joint</h2><p>Angles of the thesis (γ, β), centre of "
                      "mass, and the loads joint j carries (tension positive).</p>"
                      + _table(cols, [[t[c][i] for c in cols] for i in range(len(t["body"]))]))
+    if "spectrum" in sections_of(s):
+        parts.append(_spectrum_section(s["spectrum"]))
     if "design" in s:
         parts.append(_design_section(s["design"]))
     if "modes" in sections_of(s):
@@ -325,3 +327,52 @@ def _design_section(d: dict) -> str:
                  + _table(["design", "life [h]", "error [h]", f"life at n = {refined['before']['n'][0]} [h]",
                            "mode 1 damped [Hz]", "error [Hz]", "closest margin"], rrows, left={0, 6}))
     return text
+
+
+def _spectrum_section(sp: dict) -> str:
+    """A usage spectrum: the life with its error bar and the safe life, the damage by regime and
+    from the ground-air-ground cycles at the worst point, the hotspots and the blade fits."""
+    out = [f"<h2>Usage spectrum: life and damage by regime</h2><p>{html.escape(sp['description'])}.</p>"]
+    if sp["life_hours"] is None:
+        return out[0] + "<p>No point of the cable takes damage: the life is unbounded.</p>"
+    life = f"<b>{_num(sp['life_hours'], 4)} h</b> at n = {sp['n_bodies']}"
+    if "life_extrapolated_hours" in sp:
+        life += (f"; converged <b>{_num(sp['life_extrapolated_hours'], 4)} &plusmn; "
+                 f"{_num(sp['life_error_hours'], 2)} h</b> (Richardson over n = "
+                 f"{', '.join(str(lv['n']) for lv in sp['levels'])})")
+    out.append(f"<p>Life over the spectrum: {life}.  Safe life (life / scatter factor {sp['scatter_factor']:g}): "
+               f"<b>{_num(sp['safe_life_hours'], 4)} h</b>.  Worst point: {html.escape(sp['worst_point']['where'])}, "
+               f"damage {_num(sp['damage_per_flight_hour'], 4)} per flight hour.</p>")
+    rows = []
+    for r in sp["regimes"]:
+        alone = r["life_alone_hours"] if r["life_alone_hours"] is not None else "no damage"
+        conv = (f"{_num(r['life_alone_extrapolated_hours'], 4)} +- {_num(r['life_alone_error_hours'], 2)}"
+                if "life_alone_extrapolated_hours" in r else "")
+        rows.append([r["name"], r["time_share"], r["damage_per_hour_in_regime"], r["damage_per_flight_hour"],
+                     f"{100.0 * r['damage_share']:.3g} %", alone, conv])
+    for name in ("ground-air-ground", "start-stops"):
+        if sp["flights_per_hour"] > 0.0:
+            share = sp["damage_shares"][name]
+            rows.append([name, "-", "-", share * sp["damage_per_flight_hour"], f"{100.0 * share:.3g} %", "-", ""])
+    out.append("<p>At the worst point: each regime's damage per hour in that regime and per flight hour (times its "
+               "share of the flight time), its share of the total damage, and its life if it were flown alone (at "
+               "the finest n; converged where the regime's own levels give it).</p>"
+               + _table(["regime", "time share", "damage per hour in regime", "damage per flight hour",
+                         "share of damage", "life alone [h]", "life alone converged [h]"], rows))
+    if "gag_cycle" in sp:
+        g = sp["gag_cycle"]
+        out.append(f"<p>Ground-air-ground cycle at the worst point ({sp['flights_per_hour']:g} per flight hour): from "
+                   f"{_num(g['low'], 4)} to {_num(g['high'], 4)} ({html.escape(sp['sn_quantity'])}; rest state "
+                   f"{_num(g['rest'], 4)}), damage {_num(g['damage_per_cycle'], 3)} per cycle.</p>")
+    hot = [[h["rank"], h["quantity"], h["damage_per_hour"], h["life_hours"] if h["life_hours"] is not None
+            else "no damage"] for h in sp["hotspots"]]
+    out.append("<h3>Hotspots over the spectrum</h3>"
+               + _table(["rank", "where", "damage per flight hour", "life [h]"], hot, left=2))
+    fits = [[r["name"], r["blade_file"], angle, f["residual_rms_deg"], f["residual_max_deg"],
+             f["residual_max_at_azimuth_deg"]] for r in sp["regimes"] for angle, f in r.get("blade_fit", {}).items()]
+    if fits:
+        out.append("<h3>Blade motion from data</h3><p>The blade tables fitted as Fourier series in the azimuth "
+                   "(least squares): the residual at the table's azimuths.</p>"
+                   + _table(["regime", "file", "angle", "rms [deg]", "largest [deg]", "at azimuth [deg]"], fits,
+                            left=3))
+    return "".join(out)

@@ -82,6 +82,7 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
             life = h["life_hours"]
             life_text = "no damage" if life is None else f"{_num(life, 3)} h"
             lines.append(f"  fatigue hotspot {h['rank']}: {h['quantity']}, life {life_text}{at_n}")
+    lines += spectrum_lines(s.get("spectrum"))
     if "refinement" in s:
         q = {k: r for k, r in s["refinement"]["quantities"].items() if "extrapolated" in r}
         # Frequencies, peak loads and the worst joint's DEL first; the clamp-load maxima and
@@ -174,6 +175,38 @@ def _collapse_series(names: list[str]) -> list[str]:
     for group in series.values():
         out.append(group[0] if len(group) == 1 else f"{group[0]} ... {group[-1]} ({len(group)} files)")
     return sorted(out)
+
+
+def _percent(x: float) -> str:
+    return f"{100.0 * x:.3g} %" if x >= 1e-5 else "< 0.001 %"
+
+
+def spectrum_lines(sp: dict | None) -> list[str]:
+    """A usage spectrum's life, safe life, worst point and damage by regime."""
+    if not sp:
+        return []
+    lines = [f"  usage spectrum: {len(sp['regimes'])} regimes, {sp['flights_per_hour']:g} flights (ground-air-ground "
+             f"cycles) and {sp['flights_per_hour'] * sp['start_stops_per_flight']:g} rotor start-stops per flight hour; "
+             f"mean stress: {sp['mean_stress']}"]
+    if sp["life_hours"] is None:
+        lines.append("  no point of the cable takes damage over the spectrum: the life is unbounded")
+        return lines
+    life = f"  life over the spectrum {_num(sp['life_hours'], 4)} h at n = {sp['n_bodies']}"
+    if "life_extrapolated_hours" in sp:
+        order = (f"order {sp['observed_order']:.2f}" if sp["order_observed"]
+                 else f"order {sp['observed_order']:g} assumed")
+        life += f"; converged {_num(sp['life_extrapolated_hours'], 4)} +- {_num(sp['life_error_hours'], 2)} h ({order})"
+    lines.append(life)
+    lines.append(f"  safe life {_num(sp['safe_life_hours'], 4)} h (life / scatter factor {sp['scatter_factor']:g})")
+    lines.append(f"  worst point: {sp['worst_point']['where']}; damage there per flight hour "
+                 f"{_num(sp['damage_per_flight_hour'], 4)}")
+    shares = ", ".join(f"{name} {_percent(x)}" for name, x in sp["damage_shares"].items())
+    lines.append(f"  damage there by regime: {shares}")
+    for r in sp["regimes"]:
+        for angle, fit in r.get("blade_fit", {}).items():
+            lines.append(f"  regime '{r['name']}': {angle} angle of {r['blade_file']} fitted, residual rms "
+                         f"{_num(fit['residual_rms_deg'], 2)} deg, largest {_num(fit['residual_max_deg'], 2)} deg")
+    return lines
 
 
 def _resonance_lines(block: dict | None) -> list[str]:

@@ -10,6 +10,7 @@ from pydriver.analyses import run
 from pydriver.model import Model
 from pydriver.output import RunDirectory, write_files
 from pydriver.progress import report as report_progress
+from pydriver.errors import RunError
 from pydriver.run_result import Result, require_finite
 
 
@@ -50,7 +51,8 @@ def run_deck(path, out=None, plots: bool = False, report: bool = False, vtk: boo
         :class:`~pydriver.checkpoint.CheckpointError` for a ``restart`` directory whose files
         cannot be continued, naming the file).
     RunError
-        The solver failed on a valid deck.
+        The solver failed on a valid deck; or ``vtk`` on an analysis with no cable to draw (a
+        usage spectrum), before anything runs.
     OutputError
         ``out`` is a directory holding files rotorcable did not write, a file, a link, the
         working directory or one of its parents (raised before the computation; nothing is
@@ -59,6 +61,10 @@ def run_deck(path, out=None, plots: bool = False, report: bool = False, vtk: boo
         The output directory cannot be written (raised before the computation).
     """
     model = path if isinstance(path, Model) else Model.from_deck(path)
+    from pydriver.analyses.registry import analysis_of
+    if vtk and not analysis_of(model).draws:
+        raise RunError(f"deck '{model.name}': --vtk: a {model.analysis} run keeps no cable to draw (no time series, "
+                       "equilibrium or modes); run one of its decks with --vtk")
     checkpoint = None
     if restart is not None:
         # Everything in the directory being continued is input: checked before anything is

@@ -31,6 +31,9 @@ INF = math.inf
 #: (``src_fortran/dae_integrator.f90``, settings_from_block) and ``&solver linear_solver`` is one
 #: of them or ``'auto'`` (resolved by :func:`pydriver.model.resolve_linear_solver`).
 LINEAR_SOLVERS = ("chain", "block", "dense")
+#: The most regimes a usage spectrum may list (&spectrum regimes): each is a flight run at every
+#: refinement level; a spectrum of 20 regimes is already a fine one.
+MAX_REGIMES = 200
 #: The rotor's speed profiles a deck may choose; pydriver.motions.ROTOR_PROFILES gives each its
 #: parameters for the core, and tests/test_components.py holds the two to the same names.
 ROTOR_PROFILE_NAMES = ("constant", "runup", "table")
@@ -389,6 +392,58 @@ def _keys() -> list[Key]:
             doc="analysis = 'design': convergence tolerance on the scaled problem (parameters mapped to "
                 "[0, 1], objective divided by its start value): SLSQP ftol, trust-constr gtol and xtol",
             note="below 1e-12 the scaled objective is at round-off; above 0.1 nothing is optimised"))
+    # &spectrum: a usage spectrum (analysis = 'spectrum'; docs/model.md, "Usage spectrum") ------
+    add(Key("spectrum", "regimes", "str", "list",
+            doc="the flight regimes of the usage spectrum, one name each (letters, digits, _ and -; at most "
+                f"{MAX_REGIMES}); each is a flight run of this deck with the regime's changes",
+            allowed=f"1 ... {MAX_REGIMES} distinct names of letters, digits, _ and -"))
+    add(Key("spectrum", "share", "real", "list", low=0.0, high=1.0,
+            doc="each regime's share of the flight time (0 ... 1, one per regime, summing to 1 within 1e-6)",
+            note="a share is a fraction of the flight time"))
+    add(Key("spectrum", "forward_speed", "real", "list", "m/s", low=0.0, high=1.0e3,
+            doc="each regime's forward speed (&drag forward_speed); default: the deck's for every regime"))
+    add(Key("spectrum", "rpm", "real", "list", "rpm", low=1.0e-3, high=1.0e5,
+            doc="each regime's rotor speed (&rotor rpm); default: the deck's for every regime"))
+    add(Key("spectrum", "load_factor", "real", "list", low=-10.0, high=10.0,
+            doc="each regime's load factor n: gravity times n (a steady turn at bank angle phi: n = 1/cos phi; a "
+                "pull-up: n > 1), along the deck's gravity; default 1",
+            note="helicopter structures are designed for load factors of about -1 ... 3.5; 10 in magnitude is "
+                 "beyond any manoeuvre"))
+    add(Key("spectrum", "air_density", "real", "list", "kg/m^3", low=1.0e-6, high=2.0e3,
+            doc="each regime's air density (&drag air_density: altitude, temperature); default: the deck's"))
+    add(Key("spectrum", "blade_file", "str", "list",
+            doc="each regime's blade motion from data: a CSV file (path relative to the deck; '' for the deck's own "
+                "&blade series) with columns azimuth_deg and any of flap_deg, lag_deg, pitch_deg (the blade's "
+                "angles against its azimuth, as a rotor code or a flight test gives them), fitted by least squares "
+                "with blade_harmonics harmonics; the fit residual is reported (docs/model.md, \"Blade motion from "
+                "data\")"))
+    add(Key("spectrum", "changes", "str", "list",
+            doc="each regime's further changes of the deck ('' for none): 'group.key = value; group.key(i) = value' "
+                "with the values in deck syntax, e.g. 'blade.flap_deg = 4.0, -1.5, 0.5; solver.periodic_tol = 1e-5'; "
+                "not of &case, &chain, &refinement, &fatigue, &spectrum or &design"))
+    add(Key("spectrum", "blade_harmonics", "int", default=4, low=1, high=36,
+            doc="harmonics of a blade_file fit: a0 and 1/rev ... this /rev (the table needs at least 2 h + 1 "
+                "azimuths)",
+            note="36/rev resolves a 10 deg feature of the blade's motion, beyond what a rotor code's blade "
+                 "modes give"))
+    add(Key("spectrum", "blade_fit_tolerance_deg", "real", unit="deg", default=0.1, low=1.0e-9, high=10.0,
+            doc="largest residual of a blade_file fit at any azimuth: a fit that misses the data by more is refused "
+                "(more harmonics, or smoother data)",
+            note="below 1e-9 deg the fit's round-off counts; above 10 deg the fit is not the data"))
+    add(Key("spectrum", "flights_per_hour", "real", low=0.0, high=100.0,
+            doc="flights per flight hour: each flight is one ground-air-ground cycle (0: none; e.g. 1 for one-hour "
+                "sorties)",
+            note="100 flights per flight hour are 36 s flights, beyond any mission"))
+    add(Key("spectrum", "start_stops_per_flight", "real", default=1.0, low=1.0, high=100.0,
+            doc="rotor start-stops per flight (>= 1): each is a run-up and a run-down; those beyond the first add "
+                "a ground cycle from rest to ground idle and back"))
+    add(Key("spectrum", "runup_time", "real", unit="s", default=8.0, low=1.0e-2, high=1.0e3,
+            doc="duration of the rotor run-up from rest to the deck's rotor speed (the run-up record; assumed 8 s, "
+                "as inputs/uh60_part2_runup.nml; a real one takes tens of seconds)"))
+    add(Key("spectrum", "scatter_factor", "real", default=1.0, low=1.0, high=100.0,
+            doc="the safe life is the life divided by this (1: the S-N curve is taken as the working curve; "
+                "docs/model.md, \"Usage spectrum\")",
+            note="a factor below 1 would lengthen the life; 100 is far beyond any authority's"))
     # &refinement ---------------------------------------------------------------------------
     add(Key("refinement", "levels", "int", default=1, low=1, high=4,
             doc="run n, 2n, 4n ... (levels runs, physical cable parameters) and extrapolate; 1 = off"))
@@ -485,6 +540,8 @@ GROUP_DOCS = {
     "fatigue": "fatigue per joint: S-N (Basquin) curve, rainflow around the jacket, hotspots",
     "limits": "limits the results are judged against (flagged in the summary and report.html)",
     "design": "design sensitivities (the deck keys the results are differentiated by) and the optimiser of analysis = 'design'",
+    "spectrum": "a usage spectrum (analysis = 'spectrum'): flight regimes with their shares of the flight time, "
+                "flights and rotor start-stops per flight hour; life over the spectrum by Miner's rule",
     "refinement": "converged numbers: the same cable at n, 2n, 4n bodies and Richardson extrapolation",
     "output": "how the result files are written",
     "solver": "time integration, statics and output settings",

@@ -30,6 +30,7 @@ import pytest
 
 import pydriver
 from pydriver import key_scope
+from pydriver.analyses.registry import ANALYSES as REGISTERED
 from pydriver.deckfile import deck_from_text, validate
 from pydriver.errors import DeckError, RunError
 from pydriver.model import Model
@@ -60,6 +61,12 @@ EXTRA = {
     "campbell": "&campbell n_speeds = 3, n_modes = 1 /\n",
     "design": "&design parameters = 'clamp_a.gamma_deg', objective = 'max_joint_moment', lower = -30.0, "
               "upper = 30.0, max_iterations = 3 /\n",
+    # The flight's deck with two regimes, an S-N curve and no flights (no run-up: short).
+    "spectrum": "&solver samples_per_rev = 16, periodic_tol = 1.0e-4, rtol = 1.0e-6, atol = 1.0e-8 /\n"
+                "&clamp_b active = .true., from_start = .true., moves_with = 'blade' /\n"
+                "&blade flap_hinge = 0.0, -0.3, 0.0, flap_deg = 2.0, 1.0, 0.5 /\n"
+                "&fatigue sn_exponent = 5.0, sn_reference_amplitude = 1.0e-3, sn_reference_cycles = 1.0e6 /\n"
+                "&spectrum regimes = 'a', 'b', share = 0.5, 0.5, flights_per_hour = 0.0 /\n",
 }
 
 CABLE = {"springs.c_beta": REMOVE, "springs.d_beta": REMOVE, "chain.total_mass": REMOVE,
@@ -82,6 +89,8 @@ SETTLE = {"solver.static_method": "settle", "solver.t_end": 3.0, "solver.settle_
 EQUILIBRIUM_START = {"case.start": "equilibrium"}
 TIP = "tip"                       #: placeholder: the base deck's start tip point (a point the chain reaches)
 DATA = Path(__file__).parent / "data"
+BLADE_FILE = str(DATA / "blade_flap.csv")          #: a blade table (flap = 2 + cos psi + 0.5 sin psi + 0.01 cos 3 psi)
+FLIGHTS = {"spectrum.flights_per_hour": 1.0, "spectrum.runup_time": 0.5}
 
 def base_deck(analysis: str):
     return deck_from_text(BASE.format(analysis=analysis, extra=EXTRA[analysis]), f"{analysis}.nml")
@@ -219,6 +228,22 @@ VALUES = {
     "fatigue.mean_stress": ("goodman", {**FATIGUE, "fatigue.ultimate": 0.02}),
     "fatigue.ultimate": (0.01, {**FATIGUE, "fatigue.mean_stress": "goodman", "fatigue.ultimate": 0.02}),
     "fatigue.walker_gamma": (0.8, {**FATIGUE, "fatigue.mean_stress": "walker"}),
+    "spectrum.regimes": (["a", "c"], {}),
+    "spectrum.share": ([0.25, 0.75], {}),
+    "spectrum.forward_speed": ([5.0, 10.0], {}),
+    "spectrum.rpm": ([100.0, 140.0], {}),
+    "spectrum.load_factor": ([1.0, 1.5], {}),
+    "spectrum.air_density": ([1.0, 1.2], {"spectrum.forward_speed": [5.0, 10.0]}),
+    "spectrum.blade_file": ([BLADE_FILE, ""], {}),
+    "spectrum.changes": (["loads.gravity = 0.0, 0.0, -5.0", ""], {}),
+    "spectrum.blade_harmonics": (2, {"spectrum.blade_file": [BLADE_FILE, ""]}),
+    # Two harmonics miss the table's 3/rev by 0.01 deg: refused below that.
+    "spectrum.blade_fit_tolerance_deg": (1.0e-3, {"spectrum.blade_file": [BLADE_FILE, ""],
+                                                  "spectrum.blade_harmonics": 2}),
+    "spectrum.flights_per_hour": (1.0, {"spectrum.runup_time": 0.5}),
+    "spectrum.start_stops_per_flight": (2.0, FLIGHTS),
+    "spectrum.runup_time": (0.3, FLIGHTS),
+    "spectrum.scatter_factor": (3.0, {}),
     "limits.jacket_strain": (1.0e-6, {}),
     "limits.fatigue_life_hours": (1.0e9, FATIGUE),
     "design.parameters": (["clamp_a.gamma_deg", "chain.total_length"],
@@ -495,6 +520,25 @@ def test_the_table_holds_in_flight_and_design_runs(analysis, tmp_path):
     assert not failures, "\n".join(failures)
 
 
+#: A usage spectrum's own keys, the fatigue and limit keys its life depends on, and keys it is said
+#: to ignore although its regimes' flight runs read them (margins, Floquet) or its run-up sets
+#: itself (a dynamic run's start, run-up and times): each spectrum run is two flight runs, so
+#: these rather than the whole table.
+SPECTRUM_KEYS = tuple(k for k in VALUES if k.split(".")[0] in ("spectrum", "fatigue", "limits", "resonance")) + (
+    "solver.floquet", "solver.periodic_tol", "solver.t_end", "solver.dt_out", "case.start", "rotor.runup_time",
+    "drag.forward_speed", "loads.gravity", "design.parameters", "refinement.levels")
+
+
+def test_the_table_holds_in_spectrum_runs(tmp_path):
+    failures = []
+    for _, dotted in _pairs(("spectrum",), SPECTRUM_KEYS):
+        try:
+            _check("spectrum", dotted, tmp_path)
+        except AssertionError as err:
+            failures.append(str(err).splitlines()[0])
+    assert not failures, "\n".join(failures)
+
+
 # -- the command line's flags --------------------------------------------------------------------
 
 def _run_parser():
@@ -550,7 +594,9 @@ def _flag_checks():
         "out": lambda a, plain, run, **_: plain["status"] == 0 and "summary.json" in _files(plain["dir"]),
         "plots": new_files(".png"),
         "report": new_files(".html"),
-        "vtk": new_files(".pvd"),
+        # An analysis that keeps no cable to draw (a usage spectrum) refuses the flag, naming it.
+        "vtk": lambda a, plain, run, **_: new_files(".pvd")(a, plain, run) or (
+            not REGISTERED[a].draws and run["status"] == 1 and "--vtk" in run["err"]),
         "json": lambda a, plain, run, **_: json.loads(run["out"]) == json.loads(
             (run["dir"] / "summary.json").read_text()) and run["out"] != plain["out"],
         "verbose": lambda a, plain, run, **_: run["err"] != "" and all(

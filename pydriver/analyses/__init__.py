@@ -28,7 +28,7 @@ def run(model, run_dir=None, restart=None):
         from pydriver.analyses import dynamics
         # pydriver.checkpoint.continuation refused a deck whose analysis is not restartable.
         result = dynamics.dynamic_analysis(model, run_dir, restart=restart)
-    elif model.deck["refinement.levels"] > 1:
+    elif model.deck["refinement.levels"] > 1 and entry.refinement != "own":
         from pydriver.analyses.refinement import run_refined
         result = run_refined(model, run_dir, _with_sensitivities(model, plans) if plans else run_single)
     else:
@@ -37,6 +37,14 @@ def run(model, run_dir=None, restart=None):
         if plans:
             # The parameters' rebuilt models are part of what the sensitivities cost.
             result.summary["sensitivities"]["model_builds_wall_time_s"] = t_plan
+    finish(model, result)
+    return result
+
+
+def finish(model, result) -> None:
+    """What every run of a deck ends with: the warnings of the keys it ignored, the resonance
+    margins and the limits (also a usage spectrum combined from its records,
+    :mod:`pydriver.sweep.spectrum`)."""
     # Keys this analysis does not read say so (pydriver/key_scope.py: &fatigue in a static run,
     # &solver floquet outside flight runs, ...).
     from pydriver.key_scope import warnings as ignored_key_warnings
@@ -54,7 +62,6 @@ def run(model, run_dir=None, restart=None):
     attach_margins(model, result)
     from pydriver.analyses.limits import attach_limits
     attach_limits(model, result)
-    return result
 
 
 def _with_sensitivities(model, plans):

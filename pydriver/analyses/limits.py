@@ -26,6 +26,10 @@ def _largest_strain(result) -> tuple[float, str] | None:
     """(largest |jacket strain|, where) of a run: the flight peaks, a dynamic run's time series,
     or the equilibrium table (static, modal)."""
     s = result.summary
+    top = s.get("spectrum", {}).get("largest_strain")
+    if top is not None:                       # a usage spectrum: its regimes' largest
+        return float(top["max_abs"]), (f"regime '{top['regime']}', joint {top['joint']}, azimuth "
+                                       f"{top['azimuth_deg']:.0f} deg")
     peak = s.get("peaks", {}).get("strain")
     if peak is not None:
         where = f"joint {peak['joint']}" + (f", azimuth {peak['azimuth_deg']:.0f} deg" if "azimuth_deg" in peak else "")
@@ -46,6 +50,13 @@ def _largest_strain(result) -> tuple[float, str] | None:
 
 
 def _shortest_life(result) -> tuple[float, str] | None:
+    spectrum = result.summary.get("spectrum")
+    if spectrum is not None:
+        # A usage spectrum's safe life: the converged life where the levels give it, divided by the
+        # scatter factor (pydriver/analyses/spectrum.py).
+        life = spectrum["safe_life_hours"]
+        return None if life is None else (float(life), f"safe life (scatter factor {spectrum['scatter_factor']:g}) "
+                                                       f"over the usage spectrum, {spectrum['worst_point']['where']}")
     hot = [h for h in result.summary.get("fatigue", {}).get("hotspots", []) if h["life_hours"] is not None]
     if not hot:
         return None

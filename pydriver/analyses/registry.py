@@ -41,16 +41,33 @@ class Analysis:
     #: ``"module:function"`` differentiating a finished run, (model, plans, result) -> dict; None:
     #: ``&design parameters`` is refused on it
     sensitivities: str | None = None
-    refinement: str = "scalars"              #: how refinement extrapolates: ``"scalars"`` or ``"diagram"``
+    #: how refinement extrapolates: ``"scalars"``, ``"diagram"``, or ``"own"`` (the run function
+    #: refines what it runs itself, at the deck's levels: ``run_refined`` does not wrap it)
+    refinement: str = "scalars"
     #: the report's and the plots' sections beyond the common ones, in order (named in
     #: pydriver/report_html.py and pydriver/plots.py)
     sections: tuple[str, ...] = ()
     optimises: bool = False                  #: an optimiser over runs of another analysis (&design)
     playback_s: float = 0.0                  #: the report animation's length [s] (0: no animation)
+    #: the analysis whose runs it is made of, when that is one fixed analysis (a usage spectrum:
+    #: flight runs of its regimes): the deck's keys act in it as in that analysis
+    #: (pydriver/key_scope.py), unless their scope names it
+    evaluates: str | None = None
+    #: ``--vtk`` has a cable to draw (a time series, an equilibrium or modes); a usage spectrum
+    #: combines runs it does not keep, and refuses the flag before it runs
+    draws: bool = True
+    #: ``"module:function"`` checking the deck's keys of this analysis that the schema's ranges
+    #: cannot (pydriver/deck_rules.py calls it for the deck's analysis), (deck) -> None
+    rules: str | None = None
 
     def run(self, model, run_dir=None):
         """Run this analysis on ``model`` at its n; time series stream into ``run_dir``."""
         return _call(self.runner, model, run_dir)
+
+    def check_deck(self, deck) -> None:
+        """Its own deck rules (a DeckError for a violation); nothing if it has none."""
+        if self.rules is not None:
+            _call(self.rules, deck)
 
     def differentiate(self, model, plans, result) -> dict:
         """The design sensitivities of a finished run of this analysis."""
@@ -98,6 +115,10 @@ ANALYSES: dict[str, Analysis] = {a.name: a for a in (
              sections=("campbell",)),
     Analysis("design", "an optimiser over runs of the deck's static, modal or flight analysis",
              "pydriver.analyses.optimiser:design_run", optimises=True, sections=("design",)),
+    Analysis("spectrum", "life over a usage spectrum: flight runs of its regimes, the rotor's run-up and the "
+                         "ground-air-ground cycles, Miner's rule at every jacket point (&spectrum)",
+             "pydriver.analyses.spectrum:spectrum_run", needs_rotor=True, refinement="own", evaluates="flight",
+             rules="pydriver.usage_spectrum:check", draws=False, sections=("spectrum",)),
 )}
 
 
