@@ -1,7 +1,7 @@
 """Command line (``rotorcable`` or ``python -m pydriver``): ``run DECK [--out DIR] [--plots]
 [--report] [--vtk] [--json]``, ``study NAME``, ``keys [GROUP or KEY]``, ``outputs [FILE]``, ``docs``,
 ``sweep BASE --set GROUP.KEY=VALUES ... --out DIR`` (and ``sweep-task``/``sweep-collect`` for
-Slurm arrays)."""
+Slurm arrays), ``spectrum DECK --out DIR`` (a usage spectrum's regimes on the sweep engines)."""
 
 from __future__ import annotations
 
@@ -132,6 +132,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="the example to start from (see `rotorcable examples`)")
     _add_reference_parsers(sub)
     _add_sweep_parsers(sub)
+    _add_spectrum_parser(sub)
     return parser
 
 
@@ -144,6 +145,8 @@ def _main(argv=None) -> int:
         return _examples_command(args)
     if args.command in ("sweep", "sweep-task", "sweep-collect"):
         return _sweep_command(args)
+    if args.command == "spectrum":
+        return _spectrum_command(args)
     if args.command == "study":
         return _study_command(args)
     if args.out and len(args.decks) > 1:
@@ -337,6 +340,63 @@ def _sweep_command(args) -> int:
     for id_, msg in status.lost.items():
         print(f"warning: {id_} not run: {msg}", file=sys.stderr)
     print(status.line())
+    if status.interrupted:
+        return 130
+    return 0 if status.ok else 1
+
+
+def _add_spectrum_parser(sub):
+    spectrum = sub.add_parser(
+        "spectrum", help="life over a usage spectrum: run its regimes on a process pool, Dask or Slurm (resumable)",
+        description="Write the regimes of a usage-spectrum deck (&case analysis = 'spectrum') and its rotor run-up "
+                    "as decks DIR/decks/<id>.nml, run them (local process pool, a Dask scheduler, or a Slurm job "
+                    "array) and combine their records into DIR/summary.json and DIR/spectrum.csv: the life at "
+                    "the worst jacket point with its error bar, the damage by regime and from ground-air-ground "
+                    "cycles.  Running the same command again resumes; a regime whose deck changed runs again.")
+    spectrum.add_argument("deck", help="usage-spectrum deck")
+    spectrum.add_argument("--out", required=True, help="spectrum directory (resumes if it holds this spectrum)")
+    engine = spectrum.add_mutually_exclusive_group()
+    engine.add_argument("--jobs", type=int, metavar="N",
+                        help="local worker processes (default: all cores this process may use)")
+    engine.add_argument("--dask", metavar="ADDRESS",
+                        help="run the regimes on a running Dask scheduler, e.g. tcp://host:8786 (DIR on a file "
+                             "system the workers share)")
+    engine.add_argument("--slurm", action="store_true",
+                        help="write the decks and a Slurm job-array script DIR/sweep.slurm, run nothing, print the "
+                             "sbatch command and the command that combines the records afterwards")
+    spectrum.add_argument("--report", action="store_true", help="also write DIR/report.html")
+    spectrum.add_argument("--retry-failed", action="store_true",
+                          help="run the regimes whose record is an error again (a changed regime runs again anyway)")
+    spectrum.add_argument("--json", action="store_true", help="print the spectrum's summary.json when complete")
+
+
+def _spectrum_command(args) -> int:
+    from pydriver.sweep import SweepError
+    from pydriver.sweep.spectrum import run_spectrum, write_spectrum_slurm
+    _exit_on_termination()
+    try:
+        if args.jobs is not None and args.jobs < 1:
+            raise SweepError(f"--jobs {args.jobs}: needs at least 1")
+        if args.slurm:
+            script, commands = write_spectrum_slurm(args.deck, args.out)
+            print(f"wrote the decks and {script} (nothing run)")
+            print(f"submit:                   {commands[0]}")
+            print(f"when all tasks are done:  {commands[1]}")
+            return 0
+        status = run_spectrum(args.deck, args.out, jobs=args.jobs, dask=args.dask,
+                              retry_failed=args.retry_failed, report=args.report)
+    except (SweepError, FileNotFoundError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except (DeckError, RunError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    for name, msg in status.lost.items():
+        print(f"warning: {name} not run: {msg}", file=sys.stderr)
+    if args.json and status.summary is not None:
+        print(json.dumps(status.summary, indent=1))
+    else:
+        print(status.line())
     if status.interrupted:
         return 130
     return 0 if status.ok else 1

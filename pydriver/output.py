@@ -119,15 +119,25 @@ def _cell(value, integer: bool) -> str:
     return str(int(value)) if integer else _fmt(value)
 
 
-def _write_csv(path: Path, columns: dict, int_columns=("body", "mode", "joint", "iteration", "pass", "margin_mode"),
-               units: dict | None = None):
-    """A table with its units in the header (``pydriver/output_columns.py``)."""
+#: Columns written as integers (a body, mode or joint number, a design iteration, its pass and mode).
+INT_COLUMNS = ("body", "mode", "joint", "iteration", "pass", "margin_mode")
+
+
+def csv_text(name: str, columns: dict, int_columns=INT_COLUMNS, units: dict | None = None) -> str:
+    """The text of the table ``name`` (a file name of ``pydriver/output_columns.py``) with its
+    units in the header."""
     names = list(columns)
+    lines = [",".join(header(name, names, units))]
+    n = len(columns[names[0]]) if names else 0
+    for i in range(n):
+        lines.append(",".join(_cell(columns[c][i], c in int_columns) for c in names))
+    return "\n".join(lines) + "\n"
+
+
+def _write_csv(path: Path, columns: dict, int_columns=INT_COLUMNS, units: dict | None = None):
+    """A table with its units in the header (``pydriver/output_columns.py``)."""
     with open(path, "w", encoding="utf-8", newline="\n") as fh:
-        fh.write(",".join(header(path.name, names, units)) + "\n")
-        n = len(columns[names[0]]) if names else 0
-        for i in range(n):
-            fh.write(",".join(_cell(columns[c][i], c in int_columns) for c in names) + "\n")
+        fh.write(csv_text(path.name, columns, int_columns, units))
 
 
 def write_files(result, run_dir: RunDirectory, plots: bool = False, table_language: str = "en") -> None:

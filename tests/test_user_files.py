@@ -2,8 +2,8 @@
 
 One check over every command that writes (``run`` plain, with ``--plots --report``, ``--vtk``
 and ``--restart``; every ``study``; ``sweep`` with ``--report`` and with ``--slurm``;
-``sweep-task``; ``sweep-collect``; ``examples``; ``init``), each sent to every kind of place a
-user may name as its output ``o``:
+``sweep-task``; ``sweep-collect``; ``spectrum`` with ``--report`` and with ``--slurm``;
+``examples``; ``init``), each sent to every kind of place a user may name as its output ``o``:
 
 * ``new``: ``o`` does not exist;
 * ``users_files``: ``o`` holds a user's files (one named like the deck ``init`` writes), a
@@ -97,7 +97,20 @@ def decks(tmp_path_factory):
                           {"solver": {"t_end": "0.05", "dt_out": "1.0e-3"}})
     longer = override_deck(short, d / "longer.nml", {"solver": {"t_end": "0.1"}})
     assert run(["run", str(short), "--out", str(d / "first"), "-q"])[0] == 0
-    return {"short": short, "longer": longer, "first": d / "first"}
+    spectrum = d / "spectrum.nml"                    # one regime of a 4-body cable: a second's work
+    spectrum.write_text("""&case analysis = 'spectrum' /
+&chain n_bodies = 4, total_length = 0.6, diameter = 0.015, joint = 'xy', first_body = 'clamped' /
+&clamp_a beta_deg = 90.0 /
+&shape gamma_deg = 4*0.0, beta_deg = 0.0, 3*40.0 /
+&cable ei = 1.0, mass_per_length = 0.5, damping_time = 1.0e-3 /
+&rotor rpm = 120.0, centre = 0.0, -0.5, 0.0 /
+&clamp_b active = .true., from_start = .true., moves_with = 'blade' /
+&blade flap_hinge = 0.0, -0.3, 0.0, flap_deg = 2.0, 0.3, 0.1 /
+&fatigue sn_exponent = 5.0, sn_reference_amplitude = 1.0e-3, sn_reference_cycles = 1.0e6 /
+&solver samples_per_rev = 16, periodic_tol = 1.0e-4, rtol = 1.0e-6, atol = 1.0e-8 /
+&spectrum regimes = 'only', share = 1.0, flights_per_hour = 0.0 /
+""")
+    return {"short": short, "longer": longer, "first": d / "first", "spectrum": spectrum}
 
 
 def commands(decks) -> list[Command]:
@@ -117,6 +130,9 @@ def commands(decks) -> list[Command]:
                 setup=["sweep", MODAL, *SWEEP_SET, "--out", "{o}", "--slurm"], expect={"new": "refuses"}),
         Command("sweep-collect", ["sweep-collect", "{o}", "--report"], "sweep", setup=sweep_dir,
                 expect={"new": "refuses"}),
+        Command("spectrum --report", ["spectrum", decks["spectrum"], "--out", "{o}", "--jobs", "1", "--report"],
+                "sweep"),
+        Command("spectrum --slurm", ["spectrum", decks["spectrum"], "--out", "{o}", "--slurm"], "sweep"),
         Command("examples", ["examples", "{o}"], "examples", expect=examples_merge),
         Command("init", ["init", "{o}/mine.nml", "--like", "six_link_static"], "init", expect=init_new),
     ]
@@ -128,8 +144,8 @@ def commands(decks) -> list[Command]:
 
 
 COMMAND_NAMES = ["run", "run --plots --report", "run --vtk", "run --restart", "sweep --report",
-                 "sweep --slurm", "sweep-task", "sweep-collect", "examples", "init", "study shapes",
-                 "study cy-sweep", "study refine", "study design"]
+                 "sweep --slurm", "sweep-task", "sweep-collect", "spectrum --report", "spectrum --slurm", "examples",
+                 "init", "study shapes", "study cy-sweep", "study refine", "study design"]
 
 
 def run(argv) -> tuple[int, str]:

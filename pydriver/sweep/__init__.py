@@ -37,7 +37,8 @@ decks), :mod:`~pydriver.sweep.records`
 processes die with the sweep),
 :mod:`~pydriver.sweep.faults` (failures of the machine), :mod:`~pydriver.sweep.given_paths`
 (paths refused), :mod:`~pydriver.sweep.files` (files written whole),
-:mod:`~pydriver.sweep.run` (``run_sweep``).
+:mod:`~pydriver.sweep.run` (``run_sweep``), :mod:`~pydriver.sweep.spectrum` (a usage spectrum's
+regimes as the points of a sweep directory, ``rotorcable spectrum``).
 """
 
 from pydriver.sweep.directory import open_sweep, prepare

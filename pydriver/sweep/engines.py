@@ -88,8 +88,9 @@ def _mp_context():
     return ctx
 
 
-def run_pool(tasks: list, jobs: int, done) -> None:
-    """Run the tasks on a local pool of ``jobs`` worker processes (one deck per task).
+def run_pool(tasks: list, jobs: int, done, maker: str = "run") -> None:
+    """Run the tasks on a local pool of ``jobs`` worker processes (one deck per task; ``maker``:
+    what each record holds, :data:`pydriver.sweep.records.MAKERS`).
 
     Ctrl-C cancels the decks not started; the ones running finish and keep their records, then
     KeyboardInterrupt is raised again.  Workers die with this process (:mod:`lifeline`).
@@ -100,7 +101,7 @@ def run_pool(tasks: list, jobs: int, done) -> None:
                                 initializer=lifeline.worker_init) as pool:
         # Workers start during these submits (forkserver/spawn start them on demand), so
         # they inherit the environment set above.
-        futures = {pool.submit(run_task, deck, run_dir): id_ for id_, deck, run_dir in tasks}
+        futures = {pool.submit(run_task, deck, run_dir, maker): id_ for id_, deck, run_dir in tasks}
         try:
             for fut in as_completed(futures):
                 done(futures[fut], fut.exception(), fut)
@@ -109,8 +110,9 @@ def run_pool(tasks: list, jobs: int, done) -> None:
             raise
 
 
-def run_dask(tasks: list, address: str, done) -> None:
-    """Run the tasks on the Dask scheduler at ``address`` (workers share the file system).
+def run_dask(tasks: list, address: str, done, maker: str = "run") -> None:
+    """Run the tasks on the Dask scheduler at ``address`` (workers share the file system;
+    ``maker`` as for :func:`run_pool`).
 
     Raises
     ------
@@ -130,7 +132,8 @@ def run_dask(tasks: list, address: str, done) -> None:
     token = os.urandom(4).hex()
     try:
         futures = client.map(run_task, [str(d) for _, d, _ in tasks], [str(r) for _, _, r in tasks],
-                             key=[f"rotorcable-{id_}-{token}" for id_, _, _ in tasks], pure=False)
+                             [maker] * len(tasks), key=[f"rotorcable-{id_}-{token}" for id_, _, _ in tasks],
+                             pure=False)
         ids = {f.key: id_ for f, (id_, _, _) in zip(futures, tasks)}
         try:
             for fut in as_completed(futures):
@@ -231,6 +234,34 @@ def write_slurm(base, sets: list[str], out) -> tuple[Path, list[str]]:
         control character.  Every path is checked before anything is written.
     """
     out = checked_path(out, "--out", link_ok=False)
+    output_pattern(out / "slurm")                        # refused before anything is written
+    refuse_control_characters(sys.executable, "Python interpreter")
+    collect_cmd = f"{shlex.quote(sys.executable)} -m pydriver sweep-collect {shlex.quote(str(out))}"
+    with open_sweep(base, sets, out) as manifest:
+        return write_array_script(out, manifest, "sweep", collect_cmd)
+
+
+def write_array_script(out: Path, manifest: dict, what: str, collect_cmd: str) -> tuple[Path, list[str]]:
+    """Write ``DIR/sweep.slurm``, the job array of the points of ``manifest`` without a record,
+    for a caller that holds the directory's lock and has written its decks (:func:`write_slurm`,
+    a usage spectrum's :func:`pydriver.sweep.spectrum.write_spectrum_slurm`).
+
+    Parameters
+    ----------
+    out : Path
+        The directory (checked: :func:`checked_path`).
+    manifest : dict
+        Its manifest.
+    what : str
+        What the points are, for the script's first comment (``"sweep"``, ``"spectrum"``).
+    collect_cmd : str
+        The shell command that aggregates the records when every task is done.
+
+    Returns
+    -------
+    script, commands
+        As :func:`write_slurm`.
+    """
     logs = out / "slurm"
     output = output_pattern(logs)
     q = shlex.quote
@@ -242,15 +273,13 @@ def write_slurm(base, sets: list[str], out) -> tuple[Path, list[str]]:
         refuse_control_characters(activate, "virtual environment")
         venv = f"source {q(activate)}\n"
     path = out / SCRIPT
-    collect_cmd = f"{q(py)} -m pydriver sweep-collect {q(str(out))}"
     submit_cmd = f"sbatch {q(str(path))}"
-    with open_sweep(base, sets, out) as manifest:
-        todo = [i for i, p in enumerate(manifest["points"])
-                if read_record(out / "runs" / p["id"]) is None]
-        array = _array_spec(todo) if todo else "0"
-        script = f"""#!/bin/bash
-# rotorcable sweep {out.name}: one deck per array task ({len(todo)} of {len(manifest['points'])} points).
-# Written by `python -m pydriver sweep --slurm`; add the #SBATCH lines your site needs
+    todo = [i for i, p in enumerate(manifest["points"])
+            if read_record(out / "runs" / p["id"]) is None]
+    array = _array_spec(todo) if todo else "0"
+    script = f"""#!/bin/bash
+# rotorcable {what} {out.name}: one deck per array task ({len(todo)} of {len(manifest['points'])} points).
+# Written by `python -m pydriver {what} --slurm`; add the #SBATCH lines your site needs
 # (--partition, --account, --time) before submitting.  DIR must be on a shared file system.
 #   submit:                  {submit_cmd}
 #   when all tasks are done: {collect_cmd}
@@ -264,7 +293,7 @@ set -eo pipefail
 export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1
 {q(py)} -m pydriver sweep-task {q(str(out))} "$SLURM_ARRAY_TASK_ID"
 """
-        with writing(path):
-            logs.mkdir(exist_ok=True)
-            write_file(out, SCRIPT, script, mode=0o777)   # executable, as far as the umask allows
+    with writing(path):
+        logs.mkdir(exist_ok=True)
+        write_file(out, SCRIPT, script, mode=0o777)   # executable, as far as the umask allows
     return path, [submit_cmd, collect_cmd]

@@ -58,9 +58,13 @@ FORMAT = "rotorcable-sweep/1"
 ERROR_FILE = "error.json"
 #: Files the sweep writes at the top of its directory, and its subdirectories.
 TOP_FILES = (MANIFEST, "sweep.csv", "report.html", "sweep.slurm")
+#: A usage spectrum's own files at the top of its directory (pydriver/sweep/spectrum.py; always
+#: listed in its marker: a spectrum directory has no earlier version).
+SPECTRUM_FILES = ("spectrum.csv", "summary.json", "refinement.csv")
 SUBDIRS = ("decks", "runs", "plots", "slurm")
 
-_TOP_TEMPORARY = re.compile(r"\.(" + "|".join(map(re.escape, (*TOP_FILES, MARKER))) + ")" + HIDDEN_TAIL)
+_TOP_TEMPORARY = re.compile(r"\.(" + "|".join(map(re.escape, (*TOP_FILES, *SPECTRUM_FILES, MARKER))) + ")"
+                            + HIDDEN_TAIL)
 _DECK_TEMPORARY = re.compile(r"\.\d+\.nml" + HIDDEN_TAIL)
 _PLOT_TEMPORARY = re.compile(r"\..+\.png" + HIDDEN_TAIL)
 _LOOKS = 5                  # looks at a directory another sweep may be writing (check_sweep_directory)

@@ -30,7 +30,7 @@ from pydriver.sweep.layout import (
     existing_manifest,
 )
 
-__all__ = ["MANIFEST", "read_manifest", "read_record", "run_point", "run_task"]
+__all__ = ["MAKERS", "MANIFEST", "read_manifest", "read_record", "run_point", "run_task"]
 
 
 def read_manifest(out) -> dict:
@@ -62,7 +62,23 @@ def read_record(run_dir) -> dict | None:
     return None
 
 
-def run_task(deck, run_dir) -> dict:
+#: What makes a record of a deck, by the name a manifest gives (``"maker"``; a sweep's is
+#: ``"run"``): ``"module:function"``, called as ``function(deck, out)`` with ``out`` a new empty
+#: directory to fill (all or nothing).  A usage spectrum's regimes keep only what its life needs
+#: (:mod:`pydriver.analyses.spectrum_records`).
+MAKERS = {"run": "pydriver.run:run_deck", "spectrum": "pydriver.analyses.spectrum_records:write_record"}
+
+
+def _make_record(maker: str, deck: Path, out: Path) -> None:
+    if maker == "run":
+        run_deck(deck, out=out)          # by this module's name (a test replaces it)
+        return
+    import importlib
+    module, function = MAKERS[maker].split(":")
+    getattr(importlib.import_module(module), function)(deck, out)
+
+
+def run_task(deck, run_dir, maker: str = "run") -> dict:
     """Run one deck and store its record in ``run_dir``: the task of every engine.
 
     Parameters
@@ -71,6 +87,9 @@ def run_task(deck, run_dir) -> dict:
         The deck (absolute path when run on a cluster).
     run_dir : str or Path
         Record directory ``DIR/runs/<id>``; it appears complete or not at all.
+    maker : str
+        What the record holds (:data:`MAKERS`): ``"run"``, the files of ``pydriver run`` (a
+        sweep); ``"spectrum"``, a usage spectrum's regime.
 
     Returns
     -------
@@ -99,7 +118,7 @@ def run_task(deck, run_dir) -> dict:
     tmp = make_hidden_dir(run_dir.parent, run_dir.name)
     try:
         try:
-            run_deck(deck, out=tmp)
+            _make_record(maker, deck, tmp)
             error = None
         except Exception as exc:  # noqa: BLE001 (recorded, not raised: see Notes)
             if is_environmental(exc):
@@ -153,7 +172,7 @@ def run_point(out, index: int) -> dict:
         raise SweepError(f"{out}: task index {index} outside the grid 0-{len(points) - 1}")
     id_ = points[index]["id"]
     try:
-        return run_task(out / "decks" / f"{id_}.nml", out / "runs" / id_)
+        return run_task(out / "decks" / f"{id_}.nml", out / "runs" / id_, manifest.get("maker", "run"))
     except Exception as exc:
         # run_task raises only failures of the machine and record directories it cannot
         # make: either way the point has no record.
