@@ -124,7 +124,8 @@ def build_parser() -> argparse.ArgumentParser:
                             "flap crossing; refine: first frequency for n = 11, 22, 44, 88")
     study.add_argument("--out", help="output directory (default results/studies/<name>/): new, empty or "
                                      "an earlier output of the same study")
-    examples = sub.add_parser("examples", help="copy the example decks into a directory (never overwrites)")
+    examples = sub.add_parser("examples", help="copy the example decks (and the tables they read) into a directory "
+                                               "(never overwrites)")
     examples.add_argument("dir", nargs="?", default="rotorcable-examples", help="target directory")
     init = sub.add_parser("init", help="write a new deck that starts as one of the examples")
     init.add_argument("deck", help="the new deck's path (must not exist)")
@@ -231,7 +232,7 @@ def _examples_command(args) -> int:
     except (OSError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    print(f"copied {len(written)} example decks to {args.dir}/"
+    print(f"copied {len(written)} example files (decks and the tables they read) to {args.dir}/"
           + (f"; kept {len(kept)} already there: {', '.join(p.name for p in kept)}" if kept else ""))
     return 0
 

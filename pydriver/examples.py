@@ -33,13 +33,17 @@ def example_names() -> list[str]:
     return sorted(p.stem for p in examples_dir().glob("*.nml"))
 
 
+#: The files of the examples: the decks and the tables they read (a usage spectrum's blade table).
+EXAMPLE_FILES = ("*.nml", "*.csv")
+
+
 def copy_examples(dest) -> tuple[list[Path], list[Path]]:
-    """Copy every example deck into ``dest`` (created if missing).
+    """Copy every example deck, and every table a deck reads, into ``dest`` (created if missing).
 
     Returns
     -------
     written, kept : list of Path
-        The decks copied, and the names already taken in ``dest`` (a file, a directory or a
+        The files copied, and the names already taken in ``dest`` (a file, a directory or a
         link: left untouched).
 
     Raises
@@ -50,7 +54,7 @@ def copy_examples(dest) -> tuple[list[Path], list[Path]]:
     dest = Path(dest)
     dest.mkdir(parents=True, exist_ok=True)
     written, kept = [], []
-    for src in sorted(examples_dir().glob("*.nml")):
+    for src in sorted(p for pattern in EXAMPLE_FILES for p in examples_dir().glob(pattern)):
         target = dest / src.name
         try:
             create_new_file(target, src.read_bytes())

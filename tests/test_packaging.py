@@ -35,9 +35,11 @@ def test_wheel_builds_installs_and_runs(tmp_path):
 
 
 def test_every_example_deck_ships_in_the_wheel():
-    """meson.build lists the decks of inputs/ one by one (meson has no glob): none forgotten."""
+    """meson.build lists the decks of inputs/ and the tables they read one by one (meson has no glob):
+    none forgotten."""
     text = (ROOT / "meson.build").read_text()
-    missing = [p.name for p in INPUTS.glob("*.nml") if f"'inputs/{p.name}'" not in text]
+    missing = [p.name for pattern in ("*.nml", "*.csv") for p in INPUTS.glob(pattern)
+               if f"'inputs/{p.name}'" not in text]
     assert not missing, missing
 
 
@@ -83,9 +85,10 @@ def test_fresh_venv_gives_the_whole_tool(tmp_path):
                             capture_output=True, text=True, env=user_env, timeout=120)
     assert module.returncode == 0 and module.stdout.startswith("# Deck reference") and not module.stderr
     assert not list(venv.glob("lib/python*/site-packages/docs")) and not list(work.iterdir())
-    n_decks = len(list(INPUTS.glob("*.nml")))                         # every deck of inputs/ ships
-    assert f"copied {n_decks} example decks" in run("examples", "ex")
-    assert f"kept {n_decks} already there" in run("examples", "ex")  # never overwrites
+    # every deck of inputs/ ships, and every table a deck reads
+    n_files = len(list(INPUTS.glob("*.nml"))) + len(list(INPUTS.glob("*.csv")))
+    assert f"copied {n_files} example files" in run("examples", "ex")
+    assert f"kept {n_files} already there" in run("examples", "ex")  # never overwrites
     run("init", "mine.nml", "--like", "six_link_static.nml")         # the name as listed, suffix and all
     header = (work / "mine.nml").read_text().split("\n&", 1)[0]
     assert "a new deck" in header
