@@ -79,6 +79,28 @@ GLOSSARY: tuple[Term, ...] = (
          "The equivalent cycle count N_eq of a DEL: one cycle per rotor revolution for a flight run (the DEL "
          "is then an amplitude at the 1/rev frequency), one per second of a dynamic run.",
          r"1/rev-equivalent|1 Hz-equivalent|once per (rotor revolution|second)"),
+    Term("usage spectrum, regime, share of the flight time",
+         "The helicopter's use as fractions of its flight time spent in each flight state (a regime: hover, a "
+         "forward speed, turns ...), with the flights and rotor starts per flight hour; the life over it sums "
+         "each regime's damage weighted by its share (&spectrum).",
+         r"usage spectrum|\bregimes?\b"),
+    Term("ground-air-ground (GAG) cycle",
+         "The one load cycle per flight from the cable at rest on the ground (rotor stopped) to the extremes "
+         "of the flight and back: at each jacket point, from the lowest to the highest value of rest, run-up "
+         "and every regime.",
+         r"ground-air-ground|\bGAG\b"),
+    Term("start-stops",
+         "The rotor's run-ups from rest and run-downs: the closed cycles of the run-up record, counted twice "
+         "per start (the run-down taken as the run-up reversed).",
+         r"start-stops?"),
+    Term("safe life, scatter factor",
+         "The life divided by the scatter factor (&spectrum scatter_factor): the hours the part may serve.",
+         r"safe life|scatter factor"),
+    Term("mean-stress correction (Goodman, Gerber, Walker)",
+         "A cycle of amplitude S_a about a mean S_m counted as the fully reversed amplitude of equal life: "
+         "Goodman S_a/(1 - S_m/S_u), Gerber S_a/(1 - (S_m/S_u)^2), Walker S_max^(1-gamma) S_a^gamma "
+         "(&fatigue mean_stress; S_u its ultimate value).",
+         r"mean-stress|Goodman|Gerber|Walker"),
     Term("n; Richardson extrapolation",
          "n is the number of rigid bodies the cable is cut into.  Run at n, 2n, 4n, each number is "
          "extrapolated to n -> infinity assuming an error ~ (1/n)^p; the observed order p and the error "
