@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -363,6 +364,38 @@ def test_a_failing_regime_names_itself_keeps_the_others_and_runs_again_alone_aft
     second = run_spectrum(deck, tmp_path / "dir", jobs=1)
     assert second.ok and second.ran == ["bad"] and second.skipped == ["good"], second.line()
     assert (tmp_path / "dir" / "summary.json").is_file()
+
+
+def test_a_killed_spectrum_resumes_with_the_regimes_that_have_no_record(tmp_path):
+    """A kill leaves a regime without its record (a record appears whole, by a rename, or not at
+    all) and the empty hidden directory its task was making: the next run removes that (its
+    process is gone), runs that regime alone and gives the same spectrum bit for bit."""
+    import shutil
+
+    from pydriver.sweep.spectrum import run_spectrum
+    deck = write(tmp_path, "two.nml", spectrum_text(TWO, levels=1))
+    out = tmp_path / "dir"
+    first = run_spectrum(deck, out, jobs=1)
+    assert first.ok
+    shutil.rmtree(out / "runs" / "0001")
+    dead = int((Path("/proc/sys/kernel/pid_max")).read_text()) + 1
+    making = out / "runs" / f".0001.{dead}.{'0' * 16}"
+    making.mkdir()
+    second = run_spectrum(deck, out, jobs=1)
+    assert second.ran == ["fast"] and sorted(second.skipped) == ["run-up", "slow"], second.line()
+    assert not making.exists()
+    assert _without_times(second.summary) == _without_times(first.summary)
+
+
+def test_sweep_collect_refuses_a_spectrum_directory(tmp_path):
+    """The sweep's table is no spectrum: sweep-collect names the command that combines it."""
+    from pydriver.sweep import SweepError, collect
+    from pydriver.sweep.spectrum import run_spectrum
+    deck = write(tmp_path, "one.nml", spectrum_text(
+        "&spectrum regimes = 'only', share = 1.0, flights_per_hour = 0.0 /\n", levels=1))
+    assert run_spectrum(deck, tmp_path / "dir", jobs=1).ok
+    with pytest.raises(SweepError, match="rotorcable spectrum"):
+        collect(tmp_path / "dir")
 
 
 def test_a_directory_of_another_spectrum_or_a_sweep_is_refused(tmp_path):

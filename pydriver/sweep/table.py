@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pydriver.sweep.errors import SweepError
 from pydriver.sweep.faults import writing
 from pydriver.sweep.given_paths import checked_path
 from pydriver.sweep.layout import check_sweep_directory, existing_manifest, write_file
@@ -251,7 +252,8 @@ def collect(out, plots: bool = True, report: bool = False) -> SweepStatus:
     Raises
     ------
     SweepError
-        ``out`` with a control character, a sweep running in ``out`` (it collects itself),
+        ``out`` with a control character, a usage spectrum in ``out`` (combined by ``rotorcable
+        spectrum``), a sweep running in ``out`` (it collects itself),
         ``out`` holding anything but its sweep (named: :mod:`pydriver.sweep.layout`), or
         ``sweep.csv``, a plot or the report that cannot be written (named, with the reason:
         e.g. no space left on device).  A file that cannot be written is left as it was,
@@ -266,6 +268,10 @@ def collect(out, plots: bool = True, report: bool = False) -> SweepStatus:
     out = checked_path(out, "sweep directory", link_ok=False)
     check_sweep_directory(out, existing_manifest(out), "sweep directory")   # names what is there
     manifest = read_manifest(out)
+    if manifest.get("maker", "run") != "run":
+        # A usage spectrum's records are regimes, combined into its life (pydriver/sweep/spectrum.py).
+        raise SweepError(f"{out} holds a usage spectrum, not a sweep: its records are combined by "
+                         f"`rotorcable spectrum {shlex.quote(str(manifest['base_deck']))} --out {shlex.quote(str(out))}`")
     with hold_lock(out):
         check_sweep_directory(out, manifest, "sweep directory")       # again, under the lock
         return collect_locked(out, manifest, plots, report)
