@@ -430,7 +430,7 @@ def _keys() -> list[Key]:
             doc="largest residual of a blade_file fit at any azimuth: a fit that misses the data by more is refused "
                 "(more harmonics, or smoother data)",
             note="below 1e-9 deg the fit's round-off counts; above 10 deg the fit is not the data"))
-    add(Key("spectrum", "flights_per_hour", "real", low=0.0, high=100.0,
+    add(Key("spectrum", "flights_per_hour", "real", unit="1/h", low=0.0, high=100.0,
             doc="flights per flight hour: each flight is one ground-air-ground cycle (0: none; e.g. 1 for one-hour "
                 "sorties)",
             note="100 flights per flight hour are 36 s flights, beyond any mission"))
