@@ -351,8 +351,9 @@ def miner_damage(cyc: Cycles, sn: "SNCurve | TabulatedSNCurve") -> float:
         top = float(np.max(terms))
         log_damage = top + math.log(float(np.sum(np.exp(terms - top))))
         if log_damage >= _LOG_MAX:
-            raise ValueError(f"miner_damage: damage exceeds the float range (largest amplitude {float(np.max(a)):g} "
-                             f"against the S-N table's {sn.amplitudes[0]:g} ... {sn.amplitudes[-1]:g}): check the units")
+            raise ValueError(f"miner_damage: damage exceeds the float range (largest amplitude "
+                             f"{float(np.max(a)):g} against the S-N table's {sn.amplitudes[0]:g} ... "
+                             f"{sn.amplitudes[-1]:g}): check the units")
         return math.exp(log_damage)
     # n / N(a) = n (a / S_ref)^m / N_ref with the largest amplitude factored out, in logs:
     #   log D = m log(a_max / S_ref) - log N_ref + log sum n (a / a_max)^m,

@@ -20,7 +20,6 @@ import numpy as np
 import pytest
 
 import pydriver
-from conftest import DATA
 from pydriver import fatigue
 from pydriver.analyses.fatigue_loads import fatigue_points
 from pydriver.analyses.spectrum_damage import level_damage, spectrum_life

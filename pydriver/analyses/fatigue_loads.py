@@ -11,14 +11,15 @@ point at angle phi from the child body's axis e1,
     moment:  M(phi)   =     m_x sin phi - m_y cos phi
 
 (kappa, m: bend vector per length and bending moment in the child's axes e1, e2, sampled by the
-core).  Each point's history is rainflow counted (:mod:`pydriver.fatigue`, ``rainflow``
-package, ASTM E1049), each cycle's amplitude corrected for its mean if the deck asks
-(``&fatigue mean_stress``, :mod:`pydriver.mean_stress`), and its Palmgren-Miner damage summed on
-the deck's S-N curve (Basquin's, or a table: ``sn_file``); the joint's damage is that of its
-worst point.  Every point's damage and extremes are kept (:class:`JacketPoints`, the result's
-``extra["fatigue_points"]``) for a usage spectrum, which adds them over its regimes.  With 24 points the worst point lies within 7.5 deg
-of the true worst direction, so its amplitude is at least cos 7.5 deg = 0.991 of the true one
-(damage at least 0.93 of it for m = 8); the deck can ask for more.
+core).  Each point's history is rainflow counted (:mod:`pydriver.fatigue`, ``rainflow`` package,
+ASTM E1049), each cycle's amplitude corrected for its mean if the deck asks (``&fatigue
+mean_stress``, :mod:`pydriver.mean_stress`), and its Palmgren-Miner damage summed on the deck's
+S-N curve (Basquin's, or a table: ``sn_file``); the joint's damage is that of its worst point.
+Every point's damage and extremes are kept (:class:`JacketPoints`, the result's
+``extra["fatigue_points"]``) for a usage spectrum, which adds them over its regimes.  With
+24 points the worst point lies within 7.5 deg of the true worst direction, so its amplitude is at
+least cos 7.5 deg = 0.991 of the true one (damage at least 0.93 of it for m = 8); the deck can
+ask for more.
 
 A flight run's record is one periodic revolution (closed before counting); a dynamic run's
 record is counted as an open history, and its damage per hour is that of the record repeated.

@@ -116,7 +116,8 @@ def spectrum_result(model, spec: Spectrum, runs: dict, runup: RegimeRun | None, 
     for i, regime in enumerate(spec.regimes):
         alone = fine.regime_alone[i]
         top = float(np.max(alone))
-        entry = {"name": regime.name, "time_share": regime.share, "changes": {k: str(v) for k, v in regime.changes.items()},
+        entry = {"name": regime.name, "time_share": regime.share,
+                 "changes": {k: str(v) for k, v in regime.changes.items()},
                  "damage_per_hour_in_regime": float(alone[w]), "damage_per_flight_hour": float(fine.regimes[i][w]),
                  "damage_share": share_of(float(fine.regimes[i][w])),
                  "life_alone_hours": 1.0 / top if top > 0.0 else None}
@@ -161,7 +162,9 @@ def spectrum_result(model, spec: Spectrum, runs: dict, runup: RegimeRun | None, 
         block["gag_cycle"] = {"rest": float(fine.rest[w]), "low": float(fine.gag_low[w]),
                               "high": float(fine.gag_high[w]),
                               "damage_per_cycle": float(fine.gag[w]) / spec.flights_per_hour}
-    per_joint = [(int(j), int(np.argmax(np.where(fine.joint == j, fine.total, -np.inf)))) for j in np.unique(fine.joint)]
+    # Each joint's worst point, the joints ranked by it.
+    per_joint = [(int(j), int(np.argmax(np.where(fine.joint == j, fine.total, -np.inf))))
+                 for j in np.unique(fine.joint)]
     ranked = sorted(per_joint, key=lambda t: float(fine.total[t[1]]), reverse=True)
     block["hotspots"] = [{"rank": r + 1, "joint": j, "arc_length_m": float(arcs[j - 1]),
                           "angle_deg": float(fine.angle_deg[p]),
