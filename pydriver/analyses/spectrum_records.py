@@ -93,11 +93,11 @@ def write_record(deck_path, out) -> None:
     """Run the regime deck at ``deck_path`` and write its record into the new directory ``out``
     (the files named in the module docstring; all or none, :class:`pydriver.output.RunDirectory`).
     The record maker of a spectrum directory's tasks (:mod:`pydriver.sweep.spectrum`)."""
-    from pydriver.model import Model
+    from pydriver.deckfile import read_deck
     from pydriver.output import RunDirectory, write_files
-    model = Model.from_deck(deck_path)
-    with RunDirectory(Path(out), deck=model.name) as run_dir:
-        result = regime_result(model.deck)
+    deck = read_deck(deck_path)
+    with RunDirectory(Path(out), deck=deck.name) as run_dir:
+        result = regime_result(deck)
         result.timeseries = None
         result.extra.pop("modes", None)
         result.extra.setdefault("tables", {})[POINTS_FILE] = points_table(of_result(result))
