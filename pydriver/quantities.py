@@ -36,6 +36,7 @@ _QUANTITY_WORDS = (
     (re.compile(r"DEL (F[AB]_[xyz])"), r"damage-equivalent amplitude of \1 [N]"),
     (re.compile(r"DEL (M[AB]_[xyz])"), r"damage-equivalent amplitude of \1 [Nm]"),
     (re.compile(r"fatigue life \[h\], shortest"), "shortest fatigue life [h]"),
+    (re.compile(r"spectrum life \[h\]"), "life over the usage spectrum, at the worst point [h]"),
     (re.compile(r"decay f_damped \[Hz\]"), "damped frequency of the decay test [Hz]"),
     (re.compile(r"F_([AB]) ([xyz]) \[N\]"), r"force of support \1 on the cable, \2 [N]"),
     (re.compile(r"M_([AB]) ([xyz]) \[Nm\]"), r"moment of support \1 on the cable, \2 [Nm]"),
@@ -76,11 +77,16 @@ def quantities_of(summary: dict) -> dict[str, tuple[Quantity, float]]:
     extrapolates and the outputs report."""
     from pydriver.analyses.registry import reported, sections_of
     out: dict[str, tuple[Quantity, float]] = {}
-    if reported(summary).refinement != "scalars":
-        return out                  # a diagram over speeds: its grid and crossings are its numbers
 
     def put(q: Quantity, value):
         out[q.name] = (q, float(value))
+
+    spectrum = summary.get("spectrum")
+    if spectrum is not None and spectrum.get("life_hours") is not None:
+        # A usage spectrum's own number: its life at the worst point (pydriver.analyses.spectrum).
+        put(Quantity("spectrum life [h]", "h", headline=True), spectrum["life_hours"])
+    if reported(summary).refinement != "scalars":
+        return out                  # a diagram over speeds, a spectrum: their own numbers
 
     for i, f in enumerate(summary.get("frequencies_hz", [])[:6]):
         put(_frequency(i + 1, damped=False), f)

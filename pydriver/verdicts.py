@@ -131,7 +131,7 @@ def _words(label: str) -> str:
 def verdicts(summary: dict) -> list[Verdict]:
     """The verdict rows of a run, in the order a designer reads them."""
     s = summary
-    judged = {"fatigue life [h], shortest", "peak strain [-]"} if s.get("limits") else set()
+    judged = {"fatigue life [h], shortest", "peak strain [-]", "spectrum life [h]"} if s.get("limits") else set()
     rows = []
     life = (s.get("headline") or {}).get("fatigue life [h], shortest")
     if life is not None and not s.get("limits"):

@@ -70,10 +70,15 @@ def _family_changes(ts: dict, check: dict, rows) -> dict:
     return out
 
 
+#: A shortest life above this [h] is no damage worth estimating an error of: near the S-N curve's
+#: endurance its relative change is that of a vanishing number (a hover's 1e63 h moved by 5 %).
+NO_DAMAGE_HOURS = 1.0e9
+
+
 def _shortest_life(fatigue: dict | None) -> float | None:
     hotspots = (fatigue or {}).get("hotspots") or []
     lives = [h["life_hours"] for h in hotspots if h.get("life_hours")]
-    return min(lives) if lives else None
+    return min(lives) if lives and min(lives) < NO_DAMAGE_HOURS else None
 
 
 def _entry(method: str, settings: dict, changes: dict, life: float | None, life_check: float | None) -> dict:

@@ -93,9 +93,22 @@ def judge(result, strain_limit: float | None, life_limit: float | None) -> list[
     life = _shortest_life(result)
     if life is not None:
         value, where = life
-        rows.append(_row("shortest fatigue life", "h", value, where, _headline(result, "fatigue life [h], shortest"),
+        rows.append(_row("shortest fatigue life", "h", value, where, _life_headline(result),
                          life_limit, "&limits fatigue_life_hours", at_most=False))
     return rows
+
+
+def _life_headline(result) -> dict | None:
+    """The headline of the life the limit judges: a run's shortest fatigue life, or a usage
+    spectrum's safe life, its converged life over the scatter factor (error bar alike)."""
+    spectrum = result.summary.get("spectrum")
+    if spectrum is None:
+        return _headline(result, "fatigue life [h], shortest")
+    head = _headline(result, "spectrum life [h]")
+    if head is None:
+        return None
+    factor = float(spectrum["scatter_factor"])
+    return {**head, "value": head["value"] / factor, "error_estimate": head.get("error_estimate", 0.0) / factor}
 
 
 def attach_limits(model, result) -> None:

@@ -200,10 +200,11 @@ def spectrum_result(model, spec: Spectrum, runs: dict, runup: RegimeRun | None, 
         from pydriver.analyses.refinement import refinement_table
         quantities = {}
         if life.extrapolated is not None:
-            quantities["spectrum life [h]"] = {"values": [lv.life_hours for lv in levels],
+            quantities["spectrum life [h]"] = {"unit": "h", "values": [lv.life_hours for lv in levels],
                                                "extrapolated": life.extrapolated,
                                                "observed_order": life.observed_order,
                                                "order_observed": life.order_observed,
+                                               "asymptotic": bool(life.order_observed and not life.warning),
                                                "error_estimate": life.error_estimate,
                                                "warning": life.warning}
         summary["refinement"] = {"n": ns, "expected_order": float(deck["refinement.expected_order"]),
