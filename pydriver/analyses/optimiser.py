@@ -376,10 +376,12 @@ def _minimise(prob: Problem, evaluate: Evaluator, p0, margin, run: StartRun, his
             row["frequency_margin_percent"] = state.get("margin_percent")
             row["margin_mode"] = state.get("mode")
         history.append(row)
-        report(f"design: iteration {row['iteration']}, {prob.objective.name} = {row['objective']:.6g} "
-               f"{prob.objective.unit}" + (f", frequency margin {row['frequency_margin_percent']:.2f} % (required "
-                                           f"{prob.frequency_margin_percent:g} %)" if speeds else "")
-               + f"; {evaluate.runs} runs so far")
+        margin_text = ""
+        if row.get("frequency_margin_percent") is not None:
+            margin_text = (f", frequency margin {row['frequency_margin_percent']:.2f} % (mode {row['margin_mode']}; "
+                           f"required {prob.frequency_margin_percent:g} %)")
+        report(f"design: start '{run.label}', iteration {row['iteration']}, {prob.objective.name} = "
+               f"{row['objective']:.6g} {prob.objective.unit}{margin_text}; {evaluate.runs} runs so far")
 
     z0 = (p0 - lower) / span
     if epigraph:
