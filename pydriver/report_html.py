@@ -13,6 +13,7 @@ import numpy as np
 
 from pydriver.analyses.registry import sections_of
 from pydriver.analyses.resonance import harmonics_text
+from pydriver.number_format import with_error
 from pydriver.report_text import _num, text_summary
 from pydriver.richardson import TWO_GRID_SAFETY
 from pydriver.schema import lookup
@@ -346,7 +347,7 @@ def _spectrum_section(sp: dict) -> str:
     rows = []
     for r in sp["regimes"]:
         alone = r["life_alone_hours"] if r["life_alone_hours"] is not None else "no damage"
-        conv = (f"{_num(r['life_alone_extrapolated_hours'], 4)} +- {_num(r['life_alone_error_hours'], 2)}"
+        conv = (with_error(r['life_alone_extrapolated_hours'], r['life_alone_error_hours'])
                 if "life_alone_extrapolated_hours" in r else "")
         rows.append([r["name"], r["time_share"], r["damage_per_hour_in_regime"], r["damage_per_flight_hour"],
                      f"{100.0 * r['damage_share']:.3g} %", alone, conv])

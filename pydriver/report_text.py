@@ -7,7 +7,7 @@ import re
 
 from pydriver.analyses.registry import sections_of
 from pydriver.analyses.resonance import harmonics_text
-from pydriver.number_format import num as _num
+from pydriver.number_format import num as _num, with_error
 from pydriver.quantities import label_of as quantity_label
 from pydriver.verdicts import verdict_lines
 
@@ -66,7 +66,7 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
         lines.append(f"  crossings with {harmonics_text(s.get('excited_harmonics', s['harmonics']))} in the operating "
                      f"range: {len(s['crossings'])}")
         for c in s["crossings"][:8]:
-            converged = (f", converged {c['rpm_extrapolated']:.1f} +- {_num(c['rpm_error'], 2)} rpm"
+            converged = (f", converged {with_error(c['rpm_extrapolated'], c['rpm_error'])} rpm"
                          if c.get("rpm_extrapolated") is not None else "")
             lines.append(f"    mode {c['mode']} x {c['harmonic']}/rev at {c['rpm']:.0f} rpm "
                          f"({_num(c['frequency_hz'], 4)} Hz){converged}")
@@ -97,7 +97,7 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
             r = q[name]
             order = (f"order {r['observed_order']:.2f}" if r.get("order_observed", True)
                      else f"order {r['observed_order']:g} assumed")
-            lines.append(f"    {quantity_label(name):<40}{_num(r['extrapolated'])} +- {_num(r['error_estimate'], 2)} "
+            lines.append(f"    {quantity_label(name):<40}{with_error(r['extrapolated'], r['error_estimate'])} "
                          f"({order})")
         if len(q) > len(shown):
             lines.append(f"    ... {len(q) - len(shown)} more (clamp loads, damage-equivalent loads) in refinement.csv")
@@ -195,7 +195,7 @@ def spectrum_lines(sp: dict | None) -> list[str]:
     if "life_extrapolated_hours" in sp:
         order = (f"order {sp['observed_order']:.2f}" if sp["order_observed"]
                  else f"order {sp['observed_order']:g} assumed")
-        life += f"; converged {_num(sp['life_extrapolated_hours'], 4)} +- {_num(sp['life_error_hours'], 2)} h ({order})"
+        life += f"; converged {with_error(sp['life_extrapolated_hours'], sp['life_error_hours'])} h ({order})"
     lines.append(life)
     lines.append(f"  safe life {_num(sp['safe_life_hours'], 4)} h (life / scatter factor {sp['scatter_factor']:g})")
     lines.append(f"  worst point: {sp['worst_point']['where']}; damage there per flight hour "

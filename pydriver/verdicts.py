@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from pydriver.number_format import num as _num
+from pydriver.number_format import num as _num, with_error
 from pydriver.number_format import value_with_unit as limit_value_text
 
 
@@ -36,7 +36,7 @@ def value_text(value: float, unit: str, error: float | None = None, basis: str =
     """A headline number as every output prints it: value +- error unit (basis; a note when the
     values are not yet in the asymptotic range)."""
     text = limit_value_text(value, unit) if error is None else (
-        f"{_num(value)} +- {_num(error, 2)} {'' if unit == '-' else unit}".rstrip())
+        f"{with_error(value, error)} {'' if unit == '-' else unit}".rstrip())
     notes = [basis] if basis else []
     if not asymptotic:
         notes.append("not yet in the asymptotic range")

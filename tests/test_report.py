@@ -8,6 +8,7 @@ import subprocess
 import sys
 
 import matplotlib
+import numpy as np
 import pytest
 
 matplotlib.use("Agg")
@@ -258,3 +259,29 @@ def test_refined_quantities_in_words(name, words):
     refinement.csv and summary.json, which readers key on)."""
     from pydriver.report_text import quantity_label
     assert quantity_label(name) == words
+
+
+def test_the_report_opens_with_the_verdicts_and_a_playing_animation(flight_report, tmp_path):
+    """Issue 37, as a reader's browser draws the main job's report (headless chromium, 1280 px):
+    the verdicts lie wholly on the first screen (1000 px high), and the animation plays by itself:
+    two screenshots 0.4 s and 2.5 s after loading differ, and only inside the animation (its canvas
+    and its controls: the slider and the frame's label move with it)."""
+    import matplotlib.image
+    from browser import layout, screenshot
+    _, out = flight_report
+    page = out / "report.html"
+    box = layout(page, tmp_path, {"verdicts": "table.verdicts", "canvas": "#cable-canvas",
+                                  "widget": "div:has(> #cable-canvas)"})
+    assert box["verdicts"] is not None and box["verdicts"][3] <= 1000.0, box
+    height = int(box["widget"][3]) + 40                      # the whole animation in view
+    early = matplotlib.image.imread(screenshot(page, tmp_path / "early.png", height=height, after_ms=400))
+    late = matplotlib.image.imread(screenshot(page, tmp_path / "late.png", height=height, after_ms=2500))
+    changed = np.any(np.abs(early[..., :3] - late[..., :3]) > 0.02, axis=2)
+    rows, cols = np.nonzero(changed)
+    assert rows.size > 500, "the animation did not move"
+    left, top, right, bottom = box["canvas"]
+    in_canvas = (cols >= left - 1) & (cols <= right + 1) & (rows >= top - 1) & (rows <= bottom + 1)
+    assert np.count_nonzero(in_canvas) > 500, "the cable did not move"
+    left, top, right, bottom = box["widget"]
+    inside = (cols >= left - 1) & (cols <= right + 1) & (rows >= top - 1) & (rows <= bottom + 1)
+    assert inside.all(), f"{np.count_nonzero(~inside)} pixels changed outside the animation"
