@@ -72,9 +72,11 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
                          f"({_num(c['frequency_hz'], 4)} Hz){converged}")
     if "peaks" in s:
         p = s["peaks"]
+        # With refinement the converged values lead the verdicts; these are the finest level's and say so.
+        level = f" (at n = {s['n_bodies']})" if "refinement" in s else ""
         lines.append(f"  largest bending moment {_num(p['bending']['max_abs'])} Nm at joint "
                      f"{p['bending']['joint']}, azimuth {p['bending']['azimuth_deg']:.0f} deg; largest jacket "
-                     f"strain {_num(p['strain']['max_abs'], 3)}")
+                     f"strain {_num(p['strain']['max_abs'], 3)}{level}")
     if "fatigue" in s:
         top = s["fatigue"]["hotspots"][:3]
         at_n = f" at n = {s['n_bodies']}" if "refinement" in s else ""

@@ -26,7 +26,7 @@ import numpy as np
 from pydriver.analyses.registry import analysis_of
 from pydriver.errors import DeckError, RunError
 from pydriver.progress import report, stage
-from pydriver.quantities import quantities_of, unit_of
+from pydriver.quantities import label_of, quantities_of, unit_of
 from pydriver.richardson import (TWO_GRID_SAFETY, departing_level, level_text, outside_physical_range,
                                  richardson, richardson_two)
 from pydriver.schema import GROUPS
@@ -99,7 +99,8 @@ def extrapolate(summaries: list, ns: list, expected_order: float) -> tuple[dict,
             continue
         quantities[name] = {**entry, "order_observed": True, "asymptotic": not e.warning, "warning": e.warning or ""}
         if e.warning:
-            doubtful["oscillating" if "oscillating" in e.warning else "order"].append(name)
+            # Named in the warning as every output names it ("largest bending moment [Nm]").
+            doubtful["oscillating" if "oscillating" in e.warning else "order"].append(label_of(name))
     # One warning per kind, naming the quantities (each one's reason is in its entry).
     warnings = []
     if len(ns) == 2 and quantities:
