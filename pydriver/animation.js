@@ -8,7 +8,7 @@
 //
 // Data (JSON in <script id="cable-data">): p[frame] = flat joint points in units of unit_m,
 // strain[frame][joint], damage[joint] or null, hub (rotor centre) or null, axis = the slider's
-// quantity per frame.  World z is up; the view turns about z (drag left/right) and tilts
+// quantity per frame, before[frame] = a design run's start design (points like p) or null.  World z is up; the view turns about z (drag left/right) and tilts
 // (drag up/down); equal scale on every axis (to scale).
 (function () {
   "use strict";
@@ -51,6 +51,7 @@
   // Scene centre over every frame (the view does not jump while playing).
   const all = [];
   for (const f of D.p) for (let i = 0; i < f.length; i += 3) all.push([f[i] * u, f[i + 1] * u, f[i + 2] * u]);
+  if (D.before) for (const f of D.before) for (let i = 0; i < f.length; i += 3) all.push([f[i] * u, f[i + 1] * u, f[i + 2] * u]);
   const hub = D.hub ? D.hub.map(v => v * u) : null;
   const axisLen = D.hub ? 0.25 * Math.max(...[0, 1, 2].map(c => Math.max(...all.map(p => p[c])) - Math.min(...all.map(p => p[c])))) : 0;
   if (hub) { all.push(hub); all.push([hub[0], hub[1], hub[2] + axisLen]); }
@@ -144,6 +145,17 @@
       const a = toScreen(project([hub[0], hub[1], hub[2] - axisLen])), b = toScreen(project([hub[0], hub[1], hub[2] + axisLen]));
       ctx.setLineDash([6, 4]); ctx.strokeStyle = "#777"; ctx.beginPath(); ctx.moveTo(...a); ctx.lineTo(...b); ctx.stroke();
       ctx.setLineDash([]);
+    }
+    if (D.before) {                          // a design's start design, grey, beneath the optimum
+      const g = D.before[frame];
+      ctx.strokeStyle = "rgba(110,110,110,0.55)"; ctx.lineCap = "round";
+      ctx.lineWidth = Math.max(2, Math.min(7, S * D.diameter_m)); ctx.beginPath();
+      for (let i = 0; i <= n; i++) {
+        const [x, y] = toScreen(project([g[3 * i] * u, g[3 * i + 1] * u, g[3 * i + 2] * u]));
+        if (i) ctx.lineTo(x, y); else ctx.moveTo(x, y);
+      }
+      ctx.stroke();
+      text("grey: before (the deck's design); colour: after (the optimum)", 12, 38, "left", 12, "#555");
     }
     // Half-bodies, far ones first: body j's first half in joint j's colour, its second half
     // in joint j+1's (the last body's second half in joint n's: the tip is no joint).

@@ -57,7 +57,8 @@ def animation_data(result, model=None, timeseries_path=None) -> dict | None:
         ``n``, ``unit_m``, ``p`` (frames x 3(n+1) integers: P_1 x, y, z, P_2 ...), ``strain``
         (frames x n), ``strain_max``, ``damage`` (n, or None), ``hub`` (integers, or None),
         ``clamp_b``, ``periodic``, ``axis`` (label, unit, digits, values per frame), ``rows``
-        (the time-series row of each frame), ``frame_ms``, ``view`` (yaw, pitch [deg]),
+        (the time-series row of each frame), ``before`` (a design run: its start design's joint
+        points, frame for frame like ``p``; else None), ``frame_ms``, ``view`` (yaw, pitch [deg]),
         ``diameter_m``, ``case``.
     """
     frames = cable_frames(result, MAX_FRAMES, timeseries_path)
@@ -83,12 +84,27 @@ def animation_data(result, model=None, timeseries_path=None) -> dict | None:
     if model is not None:
         from pydriver.analyses.common import joint_geometry
         diameter = float(np.mean(joint_geometry(model)["diameter"]))
-    return {"case": s["case"], "n": n, "unit_m": UNIT_M, "p": p.tolist(),
+    before = _before_points(result, nf, n)
+    return {"case": s["case"], "n": n, "unit_m": UNIT_M, "p": p.tolist(), "before": before,
             "strain": frames.strain, "strain_max": float(np.max(frames.strain)) if frames.strain.size else 0.0,
             "damage": frames.damage, "hub": hub, "clamp_b": bool(s.get("n_constraints", 0)),
             "periodic": frames.periodic, "axis": axis, "rows": frames.rows.tolist(),
             "frame_ms": max(16.0, 1000.0 * reported(s).playback_s / max(nf, 1)),
             "view": [-120.0, 30.0], "diameter_m": diameter}
+
+
+def _before_points(result, frames: int, n: int) -> list | None:
+    """A design run's cable at its start design (``result.extra['design_start']``, the deck's own
+    parameters), frame for frame with the optimum's, drawn in grey beneath it: the before and
+    after of the optimisation in one picture.  None for other runs, or when the two records do
+    not match frame for frame (another n, another sampling)."""
+    start = result.extra.get("design_start") if hasattr(result, "extra") else None
+    if start is None:
+        return None
+    frames_before = cable_frames(start, MAX_FRAMES)
+    if frames_before is None or len(frames_before.rows) != frames or frames_before.points.shape[1] != n + 1:
+        return None
+    return np.rint(frames_before.points / UNIT_M).astype(np.int64).reshape(frames, -1).tolist()
 
 
 def animation_json(data: dict) -> str:
@@ -98,8 +114,8 @@ def animation_json(data: dict) -> str:
     for key, value in data.items():
         if key in ("strain",):
             text = "[" + ",".join(_g3(row) for row in value) + "]"
-        elif key == "p":
-            text = "[" + ",".join(_ints(row) for row in value) + "]"
+        elif key in ("p", "before"):
+            text = "null" if value is None else "[" + ",".join(_ints(row) for row in value) + "]"
         elif key == "damage":
             text = "null" if value is None else _g3(value)
         elif key == "strain_max":
@@ -135,10 +151,12 @@ def animation_html(result, model=None, timeseries_path=None) -> str:
               if data["damage"] is not None else "jacket strain")
     hub = " and the hub (rotor centre, white circle) with the rotor axis (dashed), in the turning hub frame" \
         if data["hub"] else ""
+    before = ("  Before and after: the optimum in colour, the deck's start design in grey, azimuth for azimuth."
+              if data["before"] is not None else "")
     script = (Path(__file__).with_name("animation.js")).read_text(encoding="utf-8")
     return (f"<h2 id='watch'>Watch the cable</h2><p>The cable over {what}, to scale (one scale on every axis), "
             f"with clamp A (square), clamp B (triangle){hub}; the faint line is clamp B's path.  Each half-body "
-            f"takes the colour of its nearest joint's {colour}.  Drag to turn the view.</p>"
+            f"takes the colour of its nearest joint's {colour}.{before}  Drag to turn the view.</p>"
             "<div style='border:1px solid #ddd'>"
             "<canvas id='cable-canvas' style='width:100%;height:560px;display:block;cursor:grab'></canvas>"
             "<div style='padding:0.4em 0.6em;display:flex;gap:0.8em;align-items:center;flex-wrap:wrap'>"

@@ -338,8 +338,8 @@ def _spectrum_section(sp: dict) -> str:
         return out[0] + "<p>No point of the cable takes damage: the life is unbounded.</p>"
     life = f"<b>{_num(sp['life_hours'], 4)} h</b> at n = {sp['n_bodies']}"
     if "life_extrapolated_hours" in sp:
-        life += (f"; converged <b>{_num(sp['life_extrapolated_hours'], 4)} &plusmn; "
-                 f"{_num(sp['life_error_hours'], 2)} h</b> (Richardson over n = "
+        life += (f"; converged <b>{with_error(sp['life_extrapolated_hours'], sp['life_error_hours'])} h</b>"
+                 f" (Richardson over n = "
                  f"{', '.join(str(lv['n']) for lv in sp['levels'])})")
     out.append(f"<p>Life over the spectrum: {life}.  Safe life (life / scatter factor {sp['scatter_factor']:g}): "
                f"<b>{_num(sp['safe_life_hours'], 4)} h</b>.  Worst point: {html.escape(sp['worst_point']['where'])}, "

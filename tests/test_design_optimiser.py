@@ -304,6 +304,14 @@ def test_flight_damage_optimum_sits_on_the_frequency_edge():
     assert d["life_hours"]["start"] == 1.0 / d["objective"]["start"]
     # One start: the summary says that the optimum is local.
     assert any("the optimum is local" in w for w in result.summary["warnings"])
+    # The report's animation shows before and after (issue 37): the deck's own design (the start,
+    # 0.590 m) frame for frame beneath the optimum, whose clamp B sits 0.590 - length nearer in
+    # the cable's span; the two are different cables, the same joint count and sampling.
+    from pydriver.animation import animation_data
+    data = animation_data(result)
+    before, after = np.asarray(data["before"], float), np.asarray(data["p"], float)
+    assert before.shape == after.shape == (360, 3 * 12)
+    assert np.max(np.abs(before - after)) * data["unit_m"] > 1e-3      # millimetres apart, at least
 
 
 def test_damage_objective_needs_an_sn_curve(tmp_path):
@@ -315,3 +323,32 @@ def test_damage_objective_needs_an_sn_curve(tmp_path):
     with pytest.raises(pydriver.DeckError, match="S-N curve") as err:
         pydriver.run_deck(deck)
     assert (err.value.group, err.value.key) == ("design", "objective")
+
+
+def test_the_design_margin_holds_at_the_worst_end_of_the_error_bar():
+    # One verdict for one margin (issue 36/37): with &design frequency_levels > 1 the resonance
+    # check judges the optimum's converged frequency at the worst end of its error bar, so the
+    # design's constraint moves each gap's edges in by that error bar.  A frequency on the moved
+    # edge has the resonance check's worst-case margin equal to the required one (round-off:
+    # 1e-9), a frequency on the old edge is flagged, and holds() agrees with both.
+    from pydriver.analyses.frequency_margin import FrequencyMargin
+    from pydriver.analyses.resonance import harmonic_margin
+    from pydriver.design_measures import Evaluation, allowed_gap, forbidden_bands
+    rpm, k, required, error = 260.0, 4, 10.0, 0.05
+    margin = object.__new__(FrequencyMargin)          # the rule alone, without a start model
+    margin.speeds, margin.harmonics, margin.required_percent = [rpm], list(range(1, 9)), required
+    margin.bands = forbidden_bands(margin.speeds, margin.harmonics, required)
+    margin.f_scale = rpm / 60.0
+    lo, hi = allowed_gap(0.8 * k * rpm / 60.0, margin.bands)     # the gap below 4/rev's band: its top is 0.9 x 4/rev
+    assert hi == pytest.approx(k * rpm / 60.0 * 0.9)
+    on_moved_edge = Evaluation(np.zeros(1), {"fd1_hz": hi - error}, {"fd1_hz": np.ones(1)})
+    on_old_edge = Evaluation(np.zeros(1), {"fd1_hz": hi}, {"fd1_hz": np.ones(1)})
+    gaps, errors = {1: (lo, hi)}, {1: error}
+    worst = harmonic_margin(hi - error, error, rpm, margin.harmonics)["worst_margin_percent"]
+    assert worst == pytest.approx(required, rel=1e-9)
+    assert harmonic_margin(hi, error, rpm, margin.harmonics)["worst_margin_percent"] < required
+    assert margin.holds(on_moved_edge, gaps, errors) and not margin.holds(on_old_edge, gaps, errors)
+    assert margin.holds(on_old_edge, gaps)                       # without an error bar, the old edge
+    # The constraint row of the upper edge: (high - error - f) / f_scale, zero on the moved edge.
+    values, _ = margin.rows(on_moved_edge, gaps, np.ones(1), 1, tolerance=0.0, errors=errors)
+    assert values[-1] == pytest.approx(0.0, abs=1e-12)

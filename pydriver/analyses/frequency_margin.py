@@ -19,7 +19,9 @@ harmonics, judged as the resonance check judges it.
 * **Which n.**  With ``&design frequency_levels`` > 1 each mode's frequency is shifted by its
   discretisation error f(converged) - f(n), Richardson over n, 2n (, 4n) of the modal analysis
   of the same design (:func:`discretisation_shift`), so that the converged cable keeps the
-  margin, not the n-body model.
+  margin, not the n-body model; and the gap's edges move in by the converged frequency's error
+  bar, so that the margin holds at the worst end of the error bar, where the resonance verdict
+  judges it (:mod:`pydriver.analyses.resonance`).
 """
 
 from __future__ import annotations
@@ -30,6 +32,19 @@ from pydriver.analyses.resonance import excited_harmonics, harmonic_margin, high
 from pydriver.design_measures import allowed_gap, forbidden_bands
 from pydriver.errors import RunError
 from pydriver.richardson import richardson, richardson_two
+
+
+def error_bars(shifts: dict) -> dict:
+    """{mode: error bar [Hz]} of the converged frequencies of :func:`discretisation_shift`'s
+    ``{mode: (shift, error)}``."""
+    return {mode: float(err) for mode, (_, err) in shifts.items()}
+
+
+def _narrowed(lo: float, hi: float, error: float) -> tuple[float, float]:
+    """A gap with each finite edge moved in by ``error`` (at most a quarter of the gap: a
+    frequency whose error bar is wider than its gap cannot be placed by it; the edges stay)."""
+    error = min(error, 0.25 * (hi - lo)) if np.isfinite(hi) else error
+    return (lo + error if lo > 0.0 else lo), (hi - error if np.isfinite(hi) else hi)
 
 
 def damped_name(mode: int) -> str:
@@ -99,13 +114,17 @@ class FrequencyMargin:
                        harmonic=modes[least]["harmonic"])
         return out
 
-    def holds(self, ev, gaps: dict) -> bool:
+    def holds(self, ev, gaps: dict, errors: dict | None = None) -> bool:
         """Every mode of ``gaps`` lies in its gap (to 1e-9 of its edges: the resonance check's
-        margin of a frequency on an edge is the required one to round-off)."""
-        return all(lo * (1.0 - 1e-9) <= ev.value(damped_name(m)) <= hi * (1.0 + 1e-9)
-                   for m, (lo, hi) in gaps.items())
+        margin of a frequency on an edge is the required one to round-off), with its error bar
+        (``errors``, :func:`error_bars`) inside it too."""
+        def inside(m, lo, hi):
+            lo, hi = _narrowed(lo, hi, (errors or {}).get(m, 0.0))
+            return lo * (1.0 - 1e-9) <= ev.value(damped_name(m)) <= hi * (1.0 + 1e-9)
+        return all(inside(m, lo, hi) for m, (lo, hi) in gaps.items())
 
-    def rows(self, ev, gaps: dict, span: np.ndarray, width: int, tolerance: float) -> tuple[list, list]:
+    def rows(self, ev, gaps: dict, span: np.ndarray, width: int, tolerance: float,
+             errors: dict | None = None) -> tuple[list, list]:
         """g >= 0 and its rows of the scaled problem: per mode, f - low (when low > 0) and
         high - f (when high is finite), divided by f_scale; ``span`` the parameters' ranges and
         ``width`` the scaled vector's length.
@@ -113,11 +132,14 @@ class FrequencyMargin:
         Each edge is moved into its gap by the optimiser's feasibility tolerance on the scaled
         frequency (``tolerance`` x f_scale: SLSQP's acc, trust-constr's gtol), so that an optimum
         on an edge holds the margin itself, not the margin less the optimiser's slack (which the
-        resonance check would flag: 9.9998 % < 10 %)."""
+        resonance check would flag: 9.9998 % < 10 %).  ``errors`` ({mode: error bar [Hz]},
+        :func:`error_bars`) moves each mode's edges in by its converged frequency's error bar: the
+        resonance verdict judges a margin at the worst end of the error bar, and so does the design."""
         values, rows = [], []
         n = span.size
         inset = tolerance * self.f_scale
         for mode, (lo, hi) in gaps.items():
+            lo, hi = _narrowed(lo, hi, (errors or {}).get(mode, 0.0))
             if hi - lo > 4.0 * inset:
                 lo, hi = lo + inset if lo > 0.0 else lo, hi - inset
             name = damped_name(mode)

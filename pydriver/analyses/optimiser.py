@@ -40,7 +40,8 @@ import numpy as np
 
 from pydriver.analyses.flight import flight_analysis
 from pydriver.analyses.flight_sensitivities import flight_sensitivities, worst_points_of
-from pydriver.analyses.frequency_margin import FrequencyMargin, damped_name, discretisation_shift, modes_of
+from pydriver.analyses.frequency_margin import FrequencyMargin, damped_name, discretisation_shift, error_bars, \
+    modes_of
 from pydriver.analyses.hover_modes import hover_model, require_periodic_reachable
 from pydriver.analyses.modal import modal_analysis
 from pydriver.analyses.registry import ANALYSES
@@ -105,6 +106,9 @@ class Evaluator:
         self.shifts: dict = {}
         self.runs = 0
         self._cache: dict[bytes, tuple[int, Evaluation]] = {}
+        #: The run at these parameters is kept (the deck's own design: the report's "before").
+        self.keep_run_at: bytes | None = None
+        self.start_run: Result | None = None
 
     def model_at(self, p) -> Model:
         try:
@@ -182,6 +186,8 @@ class Evaluator:
         hover_run = modal_analysis(hover)
         require_periodic_reachable(model, hover_run)
         run = flight_analysis(model)
+        if p.tobytes() == self.keep_run_at:
+            self.start_run = run
         orbit = run.extra["orbit"]
         # The run's own fatigue analysis found each joint's worst point around the jacket: the
         # outputs read it instead of repeating the rainflow counts at every point.
@@ -235,6 +241,7 @@ def design_analysis(model) -> Result:
     prob = problem(model.deck)
     evaluate = Evaluator(model.deck, prob)
     points = start_points(prob)
+    evaluate.keep_run_at = np.asarray(points["deck"], float).tobytes()
     margin = None
     if prob.frequency_margin_percent is not None:
         margin = FrequencyMargin(evaluate.model_at(points["deck"]), prob.frequency_margin_percent)
@@ -287,6 +294,11 @@ def design_analysis(model) -> Result:
     extra["tables"]["design_history.csv"] = columns
     extra["units"]["design_history.csv"] = units
     extra["texts"] = {"optimum.nml": deck_text(optimum_model.deck, header)}
+    if evaluate.start_run is not None:
+        # The deck's own design as its first evaluation ran it: the report's animation shows
+        # before and after together (issue 37).
+        extra["design_start"] = Result(summary=evaluate.start_run.summary, timeseries=evaluate.start_run.timeseries,
+                                       extra={"tables": {}})
     return Result(summary=summary, table=optimum.table, timeseries=optimum.timeseries, extra=extra)
 
 
@@ -314,7 +326,7 @@ def _optimise_from(run: StartRun, prob: Problem, evaluate: Evaluator, margin, mo
         run.success, run.message = bool(res.success), str(res.message)
     run.ev_opt = evaluate(p)
     if margin is not None:
-        run.satisfied = margin.holds(run.ev_opt, run.gaps)
+        run.satisfied = margin.holds(run.ev_opt, run.gaps, error_bars(evaluate.shifts))
     evaluate.shifts = {}
 
 
@@ -355,7 +367,7 @@ def _minimise(prob: Problem, evaluate: Evaluator, p0, margin, run: StartRun, his
                 values.append(z[n] - v / scale)
                 rows.append(np.concatenate([-g * span / scale, [1.0]]))
         if margin is not None:
-            v, r = margin.rows(ev, run.gaps, span, width, prob.tolerance)
+            v, r = margin.rows(ev, run.gaps, span, width, prob.tolerance, error_bars(evaluate.shifts))
             values += v
             rows += r
         return np.array(values), np.array(rows).reshape(len(values), width)
