@@ -34,7 +34,8 @@ N_POINTS = 4
 # Seconds.  Four tasks of ~1 s on two cores (or two Dask worker jobs starting); the limits only
 # turn a hang into a failure with the daemons' logs.
 JOB_TIMEOUT = 300
-MEASUREMENTS = {"wall_time_s"}                    # differ from run to run: not compared
+# Differ from run to run: not compared (a refined run also times each level).
+MEASUREMENTS = {"wall_time_s", "wall_time_levels_s"}
 
 
 def pydriver_cli(*args, timeout=JOB_TIMEOUT, **kw) -> subprocess.CompletedProcess:
@@ -103,9 +104,7 @@ def assert_same_sweep(out, reference) -> None:
 
     ``sweep.csv``: the same columns and rows, every value the same text (Python writes the
     shortest text that reads back as the same double, so equal text is equal bits), the
-    measurements excepted.  Each record ``runs/<id>/``: the same files, each byte for byte,
-    but ``summary.json`` compared parsed without the measurements, and the marker (which
-    names the directory it was written in) only present.
+    measurements excepted.  Each record as :func:`assert_same_records` compares them.
     """
     rows, ref_rows = read_table(out / "sweep.csv"), read_table(reference / "sweep.csv")
     assert list(rows[0]) == list(ref_rows[0])
@@ -113,8 +112,17 @@ def assert_same_sweep(out, reference) -> None:
     for row, ref in zip(rows, ref_rows):
         differ = {k: (row[k], ref[k]) for k in row if k not in MEASUREMENTS and row[k] != ref[k]}
         assert not differ, (row["id"], differ)
-    for ref_run in sorted((reference / "runs").iterdir()):
-        run = out / "runs" / ref_run.name
+    assert_same_records(out, reference)
+
+
+def assert_same_records(out, reference) -> None:
+    """Every record ``runs/<id>/`` of ``out`` and ``reference``: the same ids, the same files,
+    each byte for byte, but ``summary.json`` compared parsed without the measurements, and the
+    marker (which names the directory it was written in) only present."""
+    ids = sorted(p.name for p in (reference / "runs").iterdir())
+    assert sorted(p.name for p in (out / "runs").iterdir()) == ids
+    for id_ in ids:
+        run, ref_run = out / "runs" / id_, reference / "runs" / id_
         names = sorted(p.name for p in run.iterdir())
         assert names == sorted(p.name for p in ref_run.iterdir()), run
         for name in names:
