@@ -8,7 +8,8 @@ run both on the session's private single-node Slurm (the ``slurm`` fixture,
 compare the spectrum with the same deck's run on the local pool (``--jobs 2``) bit for bit:
 ``summary.json`` without its wall times, ``spectrum.csv`` and ``refinement.csv`` byte for byte,
 every regime's record too (the engines run the same task, ``pydriver.sweep.records.run_task``,
-with single-threaded BLAS: tests/test_slurm.py).
+with single-threaded BLAS: tests/test_slurm.py).  The Dask path (``spectrum --dask``) runs on
+workers that dask-jobqueue starts as jobs of the same Slurm.
 
 The deck is small, as tests/test_spectrum.py's (a 4-body cable, refined to 8 bodies, 16
 samples per revolution): what is tested is the path through Slurm, which is the same at any
@@ -20,8 +21,10 @@ against ~0.3 s for the others), so that the task cancelled halfway is still runn
 from __future__ import annotations
 
 import json
+import os
 import shlex
 import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -169,3 +172,29 @@ def test_a_regime_cancelled_halfway_is_resubmitted_alone(slurm, reference, tmp_p
     assert [p.name for p in (out / "runs").iterdir() if p.name.startswith(".")] == []
     assert_same_spectrum(out, reference)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["spectrum", "spectrum.nml"]
+
+
+def test_spectrum_on_dask_workers_that_are_slurm_jobs(slurm, reference, tmp_path, monkeypatch):
+    """``spectrum --dask ADDRESS`` with the workers started by dask-jobqueue as Slurm jobs."""
+    from dask_jobqueue import SLURMCluster
+    from distributed import Client
+
+    # SLURMCluster submits, lists and cancels its worker jobs from this process: they must
+    # reach the private cluster (as in tests/test_slurm.py).
+    for name in set(os.environ) - set(slurm.env):
+        monkeypatch.delenv(name)
+    for name, value in slurm.env.items():
+        monkeypatch.setenv(name, value)
+    deck = write_deck(tmp_path)
+    out = tmp_path / "spectrum"
+    with SLURMCluster(cores=1, processes=1, memory="512MB", walltime="00:15:00", queue=slurm.partition,
+                      python=sys.executable, scheduler_options={"host": "127.0.0.1", "dashboard_address": None},
+                      log_directory=str(tmp_path / "worker-logs"),
+                      local_directory=str(tmp_path / "worker-space")) as cluster:
+        cluster.scale(jobs=2)
+        with Client(cluster) as client:
+            client.wait_for_workers(2, timeout=JOB_TIMEOUT)
+        proc = pydriver_cli("spectrum", deck, "--out", out, "--dask", cluster.scheduler_address)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "3 ok, 0 failed, 0 missing (3 run now, 0 done before)" in proc.stdout, proc.stdout
+    assert_same_spectrum(out, reference)
