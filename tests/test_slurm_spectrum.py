@@ -44,9 +44,9 @@ from test_spectrum import spectrum_group, spectrum_text
 SPECTRUM = spectrum_group({
     "regimes": "'cruise', 'fine'", "share": "0.6, 0.4", "forward_speed": "5.0, 15.0", "load_factor": "1.0, 1.3",
     "changes": "'', 'solver.samples_per_rev = 6144'", "flights_per_hour": "2.0", "runup_time": "0.5"})
-#: Array index -> what it runs: the regimes in the deck's order, then the run-up.
-POINTS = {0: "cruise", 1: "fine", 2: "run-up"}
-FINE = 1
+#: Array index -> what it runs: the run-up, then the regimes in the deck's order.
+POINTS = {0: "run-up", 1: "cruise", 2: "fine"}
+FINE = 2
 #: What the combined spectrum is: files of the engine or of Slurm (the task logs) are not.
 RESULT_FILES = ("summary.json", "spectrum.csv", "refinement.csv")
 
@@ -154,17 +154,21 @@ def test_a_regime_cancelled_halfway_is_resubmitted_alone(slurm, reference, tmp_p
     assert "CANCELLED" in logs[FINE], logs[FINE]              # slurmstepd's line: it was scancel
     # A record is whole or absent: the cancelled regime has none, the others theirs, and no
     # result of the spectrum is written.
-    assert sorted(p.name for p in (out / "runs").iterdir() if not p.name.startswith(".")) == ["0000", "0002"]
+    assert sorted(p.name for p in (out / "runs").iterdir() if not p.name.startswith(".")) == ["0000", "0001"]
     assert not any((out / name).exists() for name in RESULT_FILES)
     before = record_stamps(out)
     # The resume: the same `spectrum --slurm` writes an array of the regime without a record.
     script, command = write_slurm_spectrum(deck, out)
-    assert "#SBATCH --array=1\n" in script.read_text()
+    assert f"#SBATCH --array={FINE}\n" in script.read_text()
     again = slurm.sbatch(script, cwd=tmp_path)
     slurm.wait(again, JOB_TIMEOUT)
-    assert list(task_logs(out, again)) == [FINE] and "0001: ok" in task_logs(out, again)[FINE]
-    after = record_stamps(out)
-    assert {k: v for k, v in after.items() if not k.startswith("runs/0001/")} == before
+    assert list(task_logs(out, again)) == [FINE] and f"{FINE:04d}: ok" in task_logs(out, again)[FINE]
+    # The other records are untouched; what the cancelled task was making (``runs/.0002.*`` and
+    # its temporary ``runs/..0002.*``, left by its killed process) is its own and is gone once
+    # the resubmitted task has run.
+    cancelled = (f"runs/{FINE:04d}/", f"runs/.{FINE:04d}.", f"runs/..{FINE:04d}.")
+    assert ({k: v for k, v in record_stamps(out).items() if not k.startswith(cancelled)}
+            == {k: v for k, v in before.items() if not k.startswith(cancelled)})
     proc = combine(command)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "3 ok, 0 failed, 0 missing (0 run now, 3 done before)" in proc.stdout, proc.stdout

@@ -389,9 +389,9 @@ def test_a_killed_spectrum_resumes_with_the_regimes_that_have_no_record(tmp_path
     out = tmp_path / "dir"
     first = run_spectrum(deck, out, jobs=1)
     assert first.ok
-    shutil.rmtree(out / "runs" / "0001")
+    shutil.rmtree(out / "runs" / "0002")
     dead = int((Path("/proc/sys/kernel/pid_max")).read_text()) + 1
-    making = out / "runs" / f".0001.{dead}.{'0' * 16}"
+    making = out / "runs" / f".0002.{dead}.{'0' * 16}"
     making.mkdir()
     second = run_spectrum(deck, out, jobs=1)
     assert second.ran == ["fast"] and sorted(second.skipped) == ["run-up", "slow"], second.line()

@@ -1,6 +1,6 @@
-"""The order in which a spectrum's runs are handed to an engine: the run-up first (its longest
-run in the shipped spectrum: pydriver.sweep.spectrum.runup_first), the regimes in the deck's
-order; the ids, records and Slurm array indices keep the manifest's order."""
+"""The order of a spectrum's points: the run-up first (the shipped spectrum's longest run, which
+started last ran alone at the end: pydriver.sweep.spectrum.plan), then the regimes in the deck's
+order; the pool and Dask are handed them in that order, and a Slurm array's task i is point i."""
 
 from __future__ import annotations
 
@@ -10,20 +10,23 @@ import pydriver.sweep.spectrum as spectrum
 from test_spectrum import TWO, spectrum_text
 
 
-def test_the_pool_and_dask_start_the_runup_first(tmp_path, monkeypatch):
+def test_the_runup_is_the_first_point_on_every_engine(tmp_path, monkeypatch):
     deck = tmp_path / "two.nml"
     deck.write_text(spectrum_text(TWO))
-    handed = {}
+    handed = []
 
     def engine(tasks, *args):
-        handed.setdefault("tasks", [(id_, run_dir.name) for id_, _, run_dir in tasks])
+        handed.append([(id_, deck_path.name, run_dir.name) for id_, deck_path, run_dir in tasks])
     monkeypatch.setattr(spectrum, "run_pool", engine)
     monkeypatch.setattr(spectrum, "run_dask", engine)
     for options in ({"jobs": 2}, {"dask": "tcp://127.0.0.1:1"}):
-        handed.clear()
         status = spectrum.run_spectrum(deck, tmp_path / "out", **options)
-        assert not status.ok and status.missing == ["slow", "fast", "run-up"]     # nothing ran
-        assert handed["tasks"] == [("0002", "0002"), ("0000", "0000"), ("0001", "0001")], options
+        assert not status.ok and status.missing == ["run-up", "slow", "fast"]        # nothing ran
+    order = [("0000", "0000.nml", "0000"), ("0001", "0001.nml", "0001"), ("0002", "0002.nml", "0002")]
+    assert handed == [order, order]
     manifest = json.loads((tmp_path / "out" / "sweep.json").read_text())
     assert [(p["id"], p["values"]) for p in manifest["points"]] == [
-        ("0000", ["slow"]), ("0001", ["fast"]), ("0002", ["run-up"])]
+        ("0000", ["run-up"]), ("0001", ["slow"]), ("0002", ["fast"])]
+    assert "analysis = 'dynamic'" in (tmp_path / "out" / "decks" / "0000.nml").read_text()     # the run-up's deck
+    script, _ = spectrum.write_spectrum_slurm(deck, tmp_path / "out")
+    assert "#SBATCH --array=0-2\n" in script.read_text() and "sweep-task" in script.read_text()

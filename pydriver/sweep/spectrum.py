@@ -4,8 +4,9 @@
 The regimes of a spectrum deck (:mod:`pydriver.usage_spectrum`) and its run-up are the points
 of a sweep directory, in the sweep's own layout (:mod:`pydriver.sweep.layout`, kind ``sweep``)::
 
-    DIR/sweep.json          manifest: the spectrum deck, one point per regime and the run-up,
-                            each with its deck's SHA-256; "maker": "spectrum"
+    DIR/sweep.json          manifest: the spectrum deck, one point for the run-up (the first,
+                            id 0000) and one per regime in the deck's order, each with its
+                            deck's SHA-256; "maker": "spectrum"
     DIR/decks/<id>.nml      the regime's flight deck (the run-up's dynamic deck), runs alone
     DIR/runs/<id>/          its record: summary.json, fatigue.csv, refinement.csv and every
                             level's jacket points, fatigue_points.csv
@@ -95,7 +96,13 @@ def plan(deck_path) -> tuple[dict, dict, object]:
     from pydriver.model import Model
     Model(deck)                                # the base builds (the regimes are checked by spectrum_of)
     spec = spectrum_of(deck)
-    texts = [(r.name, r.text) for r in spec.regimes] + ([(RUNUP, spec.runup_text)] if spec.runup is not None else [])
+    # The run-up first.  Every engine starts the points in this order (the pool and Dask as they
+    # are handed over, a Slurm array by task number), and the run-up, a dynamic run from rest
+    # through the whole run-up time at every level, is the shipped spectrum's longest run (~10 s
+    # against 2-6 s for a regime at n = 11, 22, 44): started last, it ran alone while the other
+    # cores had nothing left to do (benchmarks/README.md, "Usage spectrum on the engines").  A
+    # short run-up put first delays the end by no more than its own short time.
+    texts = ([(RUNUP, spec.runup_text)] if spec.runup is not None else []) + [(r.name, r.text) for r in spec.regimes]
     width = max(4, len(str(len(texts) - 1)))
     points = [{"id": f"{i:0{width}d}", "values": [name], "deck_sha256": _sha(text)}
               for i, (name, text) in enumerate(texts)]
@@ -157,22 +164,6 @@ def _opened(deck_path, out: Path):
             manifest = _adopt(out, manifest)
             _write_decks(out, manifest, texts)
         yield manifest, spec
-
-
-def runup_first(tasks: list, manifest: dict) -> list:
-    """The ``(id, deck, run_dir)`` tasks of a spectrum in the order an engine should start them:
-    the run-up first, then the regimes in the deck's order.
-
-    A pool (or a Dask scheduler) starts its tasks in the order they are given.  The run-up is a
-    dynamic run from rest through the whole run-up time at every level; in the shipped spectrum
-    it is the longest of all (~10 s against 2-6 s for a regime, n = 11, 22, 44), and started
-    last, as the manifest lists it, it ran alone while the other workers had nothing left to do
-    (benchmarks/README.md, "Usage spectrum on the engines").  Started first, it runs beside the
-    regimes.  A short run-up put first delays the end by no more than its own short time.  The
-    ids, and so the records and a Slurm array's task numbers, keep the manifest's order.
-    """
-    runup = {p["id"] for p in manifest["points"] if p["values"] == [RUNUP]}
-    return sorted(tasks, key=lambda task: task[0] not in runup)     # stable: the regimes keep their order
 
 
 @dataclass
@@ -297,7 +288,6 @@ def run_spectrum(deck, out, *, jobs: int | None = None, dask: str | None = None,
     out = checked_path(out, "--out", link_ok=False)
     with _opened(deck, out) as (manifest, spec):
         tasks, skipped = _tasks(out, manifest, retry_failed)
-        tasks = runup_first(tasks, manifest)
         lost, interrupted = {}, False
 
         def done(id_, exc, fut):
