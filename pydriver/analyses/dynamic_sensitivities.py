@@ -63,8 +63,11 @@ def dynamic_result_sensitivities(model, plans, result) -> dict:
     return dynamic_sensitivities(model, plans, result.timeseries)
 
 
-def dynamic_sensitivities(model, plans, ts: dict) -> dict:
-    """d(output)/dp of a dynamic run (module doc) from its time series ``ts`` (in memory)."""
+def dynamic_sensitivities(model, plans, ts: dict, worst_points=None, jacket_extremes: bool = False) -> dict:
+    """d(output)/dp of a dynamic run (module doc) from its time series ``ts`` (in memory);
+    ``worst_points`` and ``jacket_extremes`` as in
+    :func:`pydriver.analyses.flight_sensitivities.flight_sensitivities` (a usage spectrum's run-up
+    at the spectrum's worst points)."""
     if ts is None:
         raise RunError(f"deck '{model.name}': the design sensitivities of a dynamic run need its time series in "
                        "memory; this run streamed it to disk (a larger &solver dt_out keeps it in memory)")
@@ -77,7 +80,7 @@ def dynamic_sensitivities(model, plans, ts: dict) -> dict:
     v = np.column_stack([run["v0"], run["v"]])
     sq = np.concatenate([run["sq0"][:, None, :], run["sq"]], axis=1)
     sv = np.concatenate([run["sv0"][:, None, :], run["sv"]], axis=1)
-    outputs = _Outputs(model, ts, periodic=False)
+    outputs = _Outputs(model, ts, periodic=False, worst_points=worst_points, jacket_extremes=jacket_extremes)
     values = output_derivatives(model, plans, outputs, ts, t, q, v, sq, sv)
     sens = _pack(plans, outputs.names, outputs.units, values, [])
     sens["summary"]["method"] = (

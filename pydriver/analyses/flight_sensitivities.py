@@ -95,11 +95,14 @@ class _Outputs:
     """The outputs of a flight's revolution and, for each, how its derivative follows from the
     derivative of the time series (selection by the base run, held fixed)."""
 
-    def __init__(self, model, ts, periodic: bool = True, worst_points=None):
+    def __init__(self, model, ts, periodic: bool = True, worst_points=None, jacket_extremes: bool = False):
         """``worst_points``: per joint, the index of its worst point around the jacket as the
-        run's own fatigue analysis found it (the same rule on the same series); None: found here."""
+        run's own fatigue analysis found it (the same rule on the same series); None: found here.
+        ``jacket_extremes``: also the extremes, first value and closed cycles' damage of that
+        point's history (what a usage spectrum combines across regimes)."""
         self.periodic = periodic
         self.worst_points = worst_points
+        self.jacket_extremes = jacket_extremes
         self.names, self.units, self.values, self.rules = [], [], [], []
         nb = model.n_bodies
         for name in REACTION_NAMES[:12 if model.nc else 6]:
@@ -150,12 +153,27 @@ class _Outputs:
                       fatigue.damage_equivalent_amplitude(fatigue.cycles(x, periodic=periodic), sn.exponent,
                                                           record["n_equivalent"]),
                       ("del", signal, cyc, sn.exponent, record["n_equivalent"]))
+            if self.jacket_extremes:
+                self._jacket_extremes(j, x, signal, cyc, sn, record["per_hour"], unit)
         for name in REACTION_NAMES[:12 if model.nc else 6]:
             x = ts[name]
             self._add(f"del_{name}", _unit(name),
                       fatigue.damage_equivalent_amplitude(fatigue.cycles(x, periodic=periodic), sn.exponent,
                                                           record["n_equivalent"]),
                       ("del", ("column", name), _cycle_set(x, periodic), sn.exponent, record["n_equivalent"]))
+
+    def _jacket_extremes(self, j, x, signal, cyc, sn, per_hour, unit):
+        """A usage spectrum's ground-air-ground cycle spans the point's extremes in every regime and
+        its value at rest (a run-up's first sample); a run-up's closed cycles count apart from its
+        residue (pydriver/analyses/spectrum_damage.py): their values and rules at the point."""
+        hi, lo = int(np.argmax(x)), int(np.argmin(x))
+        for name, k in ((f"jacket_max{j}", hi), (f"jacket_min{j}", lo), (f"jacket_first{j}", 0)):
+            self._add(name, unit, float(x[k]), ("sample", signal, k, 1.0))
+        full = cyc.counts == 1.0
+        closed = _CycleSet(cyc.start[full], cyc.end[full], cyc.counts[full])
+        rule = ("damage", signal, closed, sn, per_hour)
+        self._add(f"closed_damage_per_hour{j}", "1/h", 0.0, rule)
+        self.values[-1] = float(self.frozen(lambda spec: x, None, rules=[rule])[0])
 
     def samples_used(self) -> np.ndarray:
         """The sample indices the outputs' derivatives read (:meth:`derivatives`): the extremes'
@@ -172,17 +190,18 @@ class _Outputs:
                 used.update(rule[2].end.tolist())
         return np.array(sorted(used), dtype=int)
 
-    def frozen(self, signal_of, per_hour: float | None = None) -> np.ndarray:
+    def frozen(self, signal_of, per_hour: float | None = None, rules=None) -> np.ndarray:
         """The outputs of another time series (``signal_of(spec)``) with this one's selection
         held: the samples of the extremes, the cycle set, the point around the jacket; with
         ``per_hour`` its own records per flight hour (another rotor speed).  Its derivative is
-        what :meth:`derivatives` gives."""
-        out = np.zeros(len(self.rules))
-        for i, rule in enumerate(self.rules):
+        what :meth:`derivatives` gives.  ``rules``: those instead of this one's."""
+        rules = self.rules if rules is None else rules
+        out = np.zeros(len(rules))
+        for i, rule in enumerate(rules):
             kind = rule[0]
             if kind == "sample":
                 _, col, k, sign = rule
-                out[i] = sign * signal_of(("column", col))[k]
+                out[i] = sign * signal_of(_spec(col))[k]
             elif kind == "range":
                 _, col, hi, lo = rule
                 x = signal_of(("column", col))
@@ -209,7 +228,7 @@ class _Outputs:
             kind = rule[0]
             if kind == "sample":
                 _, col, k, sign = rule
-                out[i] = sign * d_signal_of(("column", col))[k]
+                out[i] = sign * d_signal_of(_spec(col))[k]
             elif kind == "range":
                 _, col, hi, lo = rule
                 dx = d_signal_of(("column", col))
@@ -232,6 +251,11 @@ class _Outputs:
                         out[i] = s_eq ** (1.0 - m) / n_eq * float(
                             np.sum(cyc.counts[live] * amp[live] ** (m - 1.0) * d_amp[live]))
         return out
+
+
+def _spec(col) -> tuple:
+    """The signal of a sample rule: a time-series column by name, or a signal spec (a jacket point)."""
+    return col if isinstance(col, tuple) else ("column", col)
 
 
 class _CycleSet:
@@ -492,7 +516,8 @@ def flight_result_sensitivities(model, plans, result) -> dict:
                                 worst_points_of(model, result.extra.get("tables", {}).get("fatigue.csv")))
 
 
-def flight_sensitivities(model, plans, period: float, start: dict, ts: dict, worst_points=None) -> dict:
+def flight_sensitivities(model, plans, period: float, start: dict, ts: dict, worst_points=None,
+                         jacket_extremes: bool = False) -> dict:
     """d(output)/dp of a flight's periodic revolution (module doc).
 
     Parameters
@@ -512,6 +537,11 @@ def flight_sensitivities(model, plans, period: float, start: dict, ts: dict, wor
     worst_points : list of int, optional
         Per joint, its worst point around the jacket as the run's fatigue analysis found it
         (:func:`worst_points_of`); None: found again here.
+    jacket_extremes : bool, optional
+        Also the largest, smallest and first value of each joint's worst point's history
+        (``jacket_max{j}``, ``jacket_min{j}``, ``jacket_first{j}``) and the damage per hour of its
+        closed cycles (``closed_damage_per_hour{j}``): what a usage spectrum combines across its
+        regimes (:mod:`pydriver.analyses.spectrum_design`).
     """
     t_wall = time.perf_counter()
     settings = model.sensitivity_solver_settings()
@@ -568,7 +598,7 @@ def flight_sensitivities(model, plans, period: float, start: dict, ts: dict, wor
         d_end = np.vstack([basis.T @ d_end[:nq], basis.T @ d_end[nq:]])
         d_start = red
     periodicity = float(np.max(np.abs(d_end - d_start)) / max(float(np.max(np.abs(d_start))), 1e-300))
-    outputs = _Outputs(model, ts, worst_points=worst_points)
+    outputs = _Outputs(model, ts, worst_points=worst_points, jacket_extremes=jacket_extremes)
     values = output_derivatives(model, plans, outputs, ts, t_rel, q, v, sq, sv, speed)
     per_hour = np.array([rule[0] == "damage" for rule in outputs.rules])
     for k in np.flatnonzero(speed):
