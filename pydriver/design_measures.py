@@ -10,12 +10,14 @@ terms swap does not stall a gradient method.
 A new objective is one more entry of :data:`OBJECTIVES`.  A flight objective (``needs =
 'flight'``) reads its terms from the flight sensitivities of the periodic revolution
 (:mod:`pydriver.analyses.flight_sensitivities`): damage per flight hour with the rainflow cycle
-set held fixed, strain amplitudes at their arg-max and arg-min samples.
+set held fixed, strain amplitudes at their arg-max and arg-min samples.  The spectrum objective
+(``needs = 'spectrum'``) reads the damage over a usage spectrum at each joint's worst point
+(:mod:`pydriver.analyses.spectrum_design`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
@@ -33,11 +35,15 @@ class Evaluation:
         Output name (as in sensitivities.csv: ``FA_z``, ``bending3_Nm``, ``f1_hz``) -> value.
     gradients : dict
         Output name -> d(output)/d(parameters), one entry per parameter.
+    details : dict
+        What the design report shows of this evaluation beyond the values (a usage spectrum's
+        worst point and damage shares); empty for most.
     """
 
     p: np.ndarray
     values: dict
     gradients: dict
+    details: dict = field(default_factory=dict)
 
     def value(self, name: str) -> float:
         return float(self.values[name])
@@ -76,6 +82,10 @@ def _damage_per_hour(ev: Evaluation):
     return _per_joint(ev, "damage_per_hour", "")
 
 
+def _spectrum_damage_per_hour(ev: Evaluation):
+    return _per_joint(ev, "spectrum_damage_per_hour", "")
+
+
 def _strain_amplitude(ev: Evaluation):
     return _per_joint(ev, "strain", "_amplitude")
 
@@ -97,7 +107,8 @@ class Measure:
         What it is, for the deck reference and docs/model.md.
     needs : str
         The evaluation it needs: ``'static'`` (equilibrium, reactions, joint loads), ``'modal'``
-        (also the modes: the first undamped frequency) or ``'flight'`` (the periodic revolution of a flight deck).
+        (also the modes: the first undamped frequency), ``'flight'`` (the periodic revolution of a
+        flight deck) or ``'spectrum'`` (every regime of the deck's usage spectrum and its run-up).
     terms : callable
         Evaluation -> list of (value, gradient); the objective is the largest value.
     """
@@ -129,6 +140,11 @@ OBJECTIVES = {m.name: m for m in (
             "the largest Miner damage per flight hour over the joints (each at its worst point around the jacket; "
             "&fatigue) of the periodic flight revolution: the shortest fatigue life maximised",
             "flight", _damage_per_hour),
+    Measure("max_spectrum_damage_per_hour", "1/h",
+            "the largest Miner damage per flight hour over the usage spectrum (&spectrum: every regime's damage "
+            "weighted by its share of the flight time, the ground-air-ground cycles and the rotor's start-stops) over "
+            "the joints, each at the worst point of its jacket: the life over the spectrum maximised",
+            "spectrum", _spectrum_damage_per_hour),
     Measure("max_strain_amplitude", "-",
             "the largest jacket strain amplitude (max - min)/2 over the joints in the periodic flight revolution",
             "flight", _strain_amplitude),

@@ -47,8 +47,9 @@ class Problem:
         On the scaled problem (parameters mapped to [0, 1], objective divided by its start value).
     base_analysis : str
         The analysis of each evaluation and of the optimum deck: 'flight' for a flight objective
-        (the frequencies, where the margin needs them, are those of the flight's hover state), else
-        'modal' when a frequency is needed, else 'static'.
+        (the frequencies, where the margin needs them, are those of the flight's hover state),
+        'spectrum' for the spectrum objective (the frequencies those of its base flight deck's
+        hover state), else 'modal' when a frequency is needed, else 'static'.
     starts : int
         The optimiser's starts (:func:`start_points`).
     frequency_levels : int
@@ -123,12 +124,20 @@ def problem(deck: Deck) -> Problem | None:
     objective = OBJECTIVES[deck["design.objective"]]
     if objective.name == "max_damage_per_hour" and "fatigue" not in deck.groups:
         _fail(deck, "objective", "'max_damage_per_hour' needs the deck's S-N curve: add &fatigue")
+    if objective.needs == "spectrum":
+        if "spectrum" not in deck.groups:
+            _fail(deck, "objective", f"'{objective.name}' needs the deck's usage spectrum: add &spectrum (regimes, "
+                                     "share, flights_per_hour; docs/model.md, \"Usage spectrum\")")
+        # The spectrum's own rules (its regimes' decks are made and checked when the design runs,
+        # as a spectrum run makes them: pydriver.analyses.spectrum_design.parameter_roles).
+        from pydriver.usage_spectrum import check as check_spectrum
+        check_spectrum(deck)
     levels = int(deck["design.frequency_levels"])
     if levels > 1 and "cable" not in deck.groups:
         _fail(deck, "frequency_levels", f"= {levels} refines the frequencies over n, 2n ...: that needs the "
                                         "physical cable parameters (&cable ei, ...), not per-joint constants")
     needs_modes = objective.needs == "modal" or margin is not None
-    base = "flight" if objective.needs == "flight" else "modal" if needs_modes else "static"
+    base = objective.needs if objective.needs in ("flight", "spectrum") else "modal" if needs_modes else "static"
     return Problem(params, lower, upper, objective, None if margin is None else float(margin),
                    deck["design.method"], int(deck["design.max_iterations"]), float(deck["design.tolerance"]), base,
                    int(deck["design.starts"]), levels)

@@ -258,9 +258,18 @@ def _design_section(d: dict) -> str:
     rows = [[f"objective {o['name']} [{o['unit']}]", o["start"], o["optimum"], "", ""]]
     life = d.get("life_hours")
     if life:
-        rows.append(["shortest fatigue life [h] (1 / damage per flight hour)",
+        rows.append([f"{life.get('quantity', 'shortest fatigue life')} [h] (1 / damage per flight hour)",
                      life["start"] if life["start"] is not None else "no damage",
                      life["optimum"] if life["optimum"] is not None else "no damage", "", ""])
+    spectrum = d.get("spectrum")
+    if spectrum:
+        # A spectrum design: its worst point and where its damage comes from, before and after.
+        start, opt = spectrum["start"], spectrum["optimum"]
+        rows.append(["worst point (joint, deg around)",
+                     *(f"{w['worst_point']['joint']}, {w['worst_point']['angle_deg']:.0f}" for w in (start, opt)),
+                     "", ""])
+        rows += [[f"damage share: {name} [%]", 100.0 * start["damage_shares"].get(name, 0.0),
+                  100.0 * share, "", ""] for name, share in opt["damage_shares"].items()]
     rows += [[f"{name} [{p['unit']}]", p["start"], p["optimum"], f"[{_num(p['lower'])}, {_num(p['upper'])}]",
               f"at the {p['at_bound']} bound" if p["at_bound"] else ""] for name, p in d["parameters"].items()]
     if "frequency_margin" in d:

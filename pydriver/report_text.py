@@ -117,6 +117,19 @@ def text_summary(summary: dict, files: dict | None = None) -> str:
     return "\n".join(lines)
 
 
+def _spectrum_design_lines(sp: dict | None) -> list[str]:
+    """A spectrum design's worst point and where its damage comes from, before and after."""
+    if not sp:
+        return []
+    lines = []
+    for when in ("start", "optimum"):
+        w = sp[when]
+        shares = ", ".join(f"{name} {100.0 * v:.1f} %" for name, v in w["damage_shares"].items())
+        lines.append(f"    {when}: worst point joint {w['worst_point']['joint']}, "
+                     f"{w['worst_point']['angle_deg']:.0f} deg around; damage from {shares}")
+    return lines
+
+
 def design_lines(d: dict) -> list[str]:
     """A design run: objective (and life) before and after, its starts, the parameters (which sit
     on a bound), the frequency margin of every constrained mode."""
@@ -129,7 +142,9 @@ def design_lines(d: dict) -> list[str]:
     life = d.get("life_hours")
     if life:
         text = [("no damage" if v is None else f"{_num(v, 4)} h") for v in (life["start"], life["optimum"])]
-        lines.append(f"    shortest fatigue life {text[0]} -> {text[1]} (1 / damage per flight hour)")
+        lines.append(f"    {life.get('quantity', 'shortest fatigue life')} {text[0]} -> {text[1]} "
+                     "(1 / damage per flight hour)")
+    lines += _spectrum_design_lines(d.get("spectrum"))
     for name, p in d["parameters"].items():
         bound = f" (at the {p['at_bound']} bound)" if p["at_bound"] else ""
         lines.append(f"    {name} [{p['unit']}]: {_num(p['start'])} -> {_num(p['optimum'])}{bound}")

@@ -16,6 +16,10 @@ a whole flight run to its periodic revolution with its flight sensitivities
 (:mod:`pydriver.analyses.flight_sensitivities`: forward sensitivities through the DAE, the
 periodic start by the monodromy, damage with the cycle set held fixed); its frequency margin is
 that of the hover state at the flight's rotor speed (:mod:`pydriver.analyses.hover_modes`).
+The spectrum objective (the largest damage per flight hour over a usage spectrum) evaluates every
+regime's flight and the run-up at the deck's n with their sensitivities at the spectrum's worst
+points (:mod:`pydriver.analyses.spectrum_design`); its margin is that of the hover state of the
+spectrum's base flight deck, and its optimum is a plain spectrum deck.
 
 A largest-of-several objective (the largest support force, the largest joint moment) is
 minimised in the epigraph form: minimise t subject to t >= term_i.  The frequency margin
@@ -47,6 +51,7 @@ from pydriver.analyses.modal import modal_analysis
 from pydriver.analyses.registry import ANALYSES
 from pydriver.analyses.sensitivities import N_FREQUENCIES, modal_sensitivities, plan, static_outputs, \
     static_sensitivities
+from pydriver.analyses.spectrum_design import flight_deck, parameter_roles, spectrum_deck, spectrum_sensitivities
 from pydriver.analyses.statics import drop_pulse, equilibrium
 from pydriver.deckfile import Deck, deck_text, validate
 from pydriver.design_measures import Evaluation
@@ -100,7 +105,9 @@ class Evaluator:
 
     def __init__(self, deck: Deck, prob: Problem, top_hz: float | None = None):
         self.prob = prob
-        self.deck = base_deck(deck, prob.base_analysis)
+        self.spectrum = prob.base_analysis == "spectrum"
+        # A spectrum takes no &design (its regimes would differentiate themselves): its plain deck.
+        self.deck = spectrum_deck(deck) if self.spectrum else base_deck(deck, prob.base_analysis)
         self.top_hz = top_hz
         self.modes = N_FREQUENCIES
         self.shifts: dict = {}
@@ -109,16 +116,36 @@ class Evaluator:
         #: The run at these parameters is kept (the deck's own design: the report's "before").
         self.keep_run_at: bytes | None = None
         self.start_run: Result | None = None
+        #: which of a spectrum's runs take which parameter (checked before anything runs)
+        self.roles = (parameter_roles(self.deck, prob.parameters, prob.lower, prob.upper, self.deck_at)
+                      if self.spectrum else None)
+
+    def _refused(self, p, err: DeckError) -> RunError:
+        where = ", ".join(f"{par.name} = {v:.6g}" for par, v in zip(self.prob.parameters, p))
+        return RunError(f"deck '{self.deck.name}': the design {where} is refused: {err}")
+
+    def deck_at(self, p) -> Deck:
+        """The base deck at the parameters ``p``."""
+        try:
+            return self.deck.with_values(parameter_changes(self.deck, self.prob.parameters, p))
+        except DeckError as err:
+            raise self._refused(p, err) from None
 
     def model_at(self, p) -> Model:
+        deck = self.deck_at(p)
         try:
-            return Model(self.deck.with_values(parameter_changes(self.deck, self.prob.parameters, p)))
+            return Model(deck)
         except DeckError as err:
-            where = ", ".join(f"{par.name} = {v:.6g}" for par, v in zip(self.prob.parameters, p))
-            raise RunError(f"deck '{self.deck.name}': the design {where} is refused: {err}") from None
+            raise self._refused(p, err) from None
 
     def modal_model_at(self, p) -> Model:
-        """The model whose modes the margin judges: the base modal deck, or a flight's hover state."""
+        """The model whose modes the margin judges: the base modal deck, or a flight's hover state
+        (a spectrum's: that of its base flight deck)."""
+        if self.spectrum:
+            try:
+                return hover_model(Model(flight_deck(self.deck_at(p), self.prob.parameters)))
+            except DeckError as err:
+                raise self._refused(p, err) from None
         model = self.model_at(p)
         return hover_model(model) if ANALYSES[self.prob.base_analysis].periodic else model
 
@@ -134,7 +161,7 @@ class Evaluator:
         for mode, (shift, _) in self.shifts.items():
             if damped_name(mode) in values:
                 values[damped_name(mode)] += shift
-        return Evaluation(ev.p, values, ev.gradients)
+        return Evaluation(ev.p, values, ev.gradients, ev.details)
 
     def _modes(self, model, who: str, state=None, plans=None) -> dict:
         """The modal sensitivities about ``model``'s equilibrium ``state`` (q, lambda; solved here
@@ -155,6 +182,8 @@ class Evaluator:
             return self._evaluate_design(p)
 
     def _evaluate_design(self, p) -> Evaluation:
+        if self.spectrum:
+            return self._evaluate_spectrum(p)
         if ANALYSES[self.prob.base_analysis].periodic:
             return self._evaluate_flight(p)
         model = drop_pulse(self.model_at(p))      # this design's own model
@@ -203,6 +232,25 @@ class Evaluator:
             for out, row in modal["summary"]["d_output_d_parameter"].items():
                 gradients[out] = np.array([row[n] for n in names])
         return Evaluation(p, values, gradients)
+
+    def _evaluate_spectrum(self, p) -> Evaluation:
+        """The usage spectrum at the deck's n with its damage sensitivities at its worst points;
+        with a frequency margin, the frequencies of its base flight deck's hover state with their
+        modal sensitivities."""
+        deck = self.deck_at(p).with_values({"refinement.levels": 1})
+        try:
+            values, gradients, details = spectrum_sensitivities(deck, self.prob.parameters, self.roles)
+        except DeckError as err:
+            raise self._refused(p, err) from None
+        if self.prob.frequency_margin_percent is not None:
+            hover = self.modal_model_at(p)
+            hover_run = modal_analysis(hover)
+            modal = self._modes(hover, "of the hover state ", (hover_run.extra["q"], hover_run.extra["lambda"]))
+            values.update(modal["values"])
+            names = [par.name for par in self.prob.parameters]
+            for out, row in modal["summary"]["d_output_d_parameter"].items():
+                gradients[out] = np.array([row[n] for n in names])
+        return Evaluation(p, values, gradients, details)
 
 
 def design_run(model, run_dir=None) -> Result:
@@ -288,8 +336,10 @@ def design_analysis(model) -> Result:
     # The optimum's own run (its shapes for the plots and the report's animation), with the tables
     # a design writes: its history and the optimum's resonance margins (the design's margin).
     extra = dict(optimum.extra)
-    extra["tables"] = {k: v for k, v in extra.get("tables", {}).items() if k == "resonance.csv"}
-    extra["units"] = {k: v for k, v in extra.get("units", {}).items() if k == "resonance.csv"}
+    # A spectrum's optimum keeps its damage by regime and its refined life.
+    kept = ("resonance.csv",) + (("spectrum.csv", "refinement.csv") if evaluate.spectrum else ())
+    extra["tables"] = {k: v for k, v in extra.get("tables", {}).items() if k in kept}
+    extra["units"] = {k: v for k, v in extra.get("units", {}).items() if k in kept}
     columns, units = _history_columns(history, prob)
     extra["tables"]["design_history.csv"] = columns
     extra["units"]["design_history.csv"] = units
@@ -513,7 +563,12 @@ def _summary_block(prob: Problem, starts: list, best: StartRun, margin, runs: in
                           "docs/model.md, \"Design sensitivities\""}
     if prob.objective.unit == "1/h":
         # A designer reads a life: the shortest fatigue life is 1 / the largest damage per flight hour.
-        block["life_hours"] = {"start": _life(objective["start"]), "optimum": _life(objective["optimum"])}
+        block["life_hours"] = {"start": _life(objective["start"]), "optimum": _life(objective["optimum"]),
+                               "quantity": ("life over the usage spectrum" if prob.objective.needs == "spectrum"
+                                            else "shortest fatigue life")}
+    if ev0.details or ev_opt.details:
+        # A spectrum's worst point and where its damage comes from, before and after.
+        block["spectrum"] = {"start": ev0.details, "optimum": ev_opt.details}
     if margin is not None:
         fm = margin.summary()
         fm.update(constrained_modes=sorted(best.gaps),
