@@ -422,7 +422,12 @@ def reason(deck: Deck, group: str, key: str | None, analysis: str | None = None)
     base = base_analysis(deck) if analysis in COMPOSITE else analysis
     for scope in SCOPES:
         if scope.names(group, key):
-            why = scope.reason(deck, analysis, base)
+            if base in COMPOSITE and analysis not in scope.acts_in + scope.ignored_in:
+                # A design over a usage spectrum: beyond the optimiser's own keys, a key acts as
+                # in the spectrum's own run (pydriver/analyses/spectrum_design.py).
+                why = scope.reason(deck, base, REGISTERED[base].evaluates)
+            else:
+                why = scope.reason(deck, analysis, base)
             if why is not None:
                 return why
     return None

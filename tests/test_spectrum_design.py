@@ -81,6 +81,8 @@ def test_optimum_lowers_the_damage_and_reruns_as_a_plain_spectrum(tmp_path):
     result = pydriver.run_deck(path, out=out, report=True)
     d = result.summary["design"]
     assert d["objective"]["optimum"] < 0.9 * d["objective"]["start"]
+    # Every key of the spectrum deck acts in its design run (none is reported ignored).
+    assert not [w for w in result.summary.get("warnings", []) if "ignored" in w]
     assert d["life_hours"]["optimum"] == pytest.approx(1.0 / d["objective"]["optimum"], rel=1e-15)
     assert d["life_hours"]["quantity"] == "life over the usage spectrum"
     assert set(d["spectrum"]) == {"start", "optimum"}
