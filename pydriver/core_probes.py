@@ -106,12 +106,17 @@ def ggl_residual(core: CoreModel, y, yd, t: float = 0.0) -> np.ndarray:
     return r
 
 
+#: The physics columns of :func:`iteration_matrix`: analytic (whole matrices, the run's), analytic
+#: by one tangent sweep per column (their check), central differences (the check of both).
+JACOBIAN_METHODS = {"analytic": 1, "tangent_sweeps": 2, "finite_difference": 0}
+
+
 def iteration_matrix(core: CoreModel, y, yd, cj: float, b, n_rep: int = 1, t: float = 0.0,
                      jacobian: str = "analytic") -> dict:
-    """The GGL iteration matrix at (y, y', cj), its physics columns analytic or by finite
-    differences, with the block solver's solutions of J x = b and the timings."""
+    """The GGL iteration matrix at (y, y', cj), its physics columns by ``jacobian`` (a key of
+    :data:`JACOBIAN_METHODS`), with the block solver's solutions of J x = b and the timings."""
     (jac, x, nbf, nbs, ndf, nds, stat, msg) = _probes.rc_probe_iteration_matrix(
-        core.handle, float(t), float(cj), _reals(y), _reals(yd), int(jacobian == "analytic"),
+        core.handle, float(t), float(cj), _reals(y), _reals(yd), JACOBIAN_METHODS[jacobian],
         np.asfortranarray(b, float), int(n_rep))
     _raise(core.deck, stat, "", msg)
     return {"jacobian": jac, "x_block": x, "ns_block_factor": nbf, "ns_block_solve": nbs,
@@ -129,13 +134,26 @@ def chain_solver(core: CoreModel, y, cj: float, b, n_rep: int = 1, t: float = 0.
 
 def time_kernels(core: CoreModel, y, yd, n_rep: int, t: float = 0.0) -> dict:
     """The residual at (t, y, y') and the wall time per call [ns] of the residual (timed over
-    ``n_rep`` calls in Fortran), of the iteration matrix with analytic and with finite-difference
-    physics columns (n_rep/100 + 1 calls) and of the mass matrix."""
-    r, ns_res, ns_jac, ns_jac_fd, ns_mass, stat, msg = _probes.rc_probe_time_kernels(
+    ``n_rep`` calls in Fortran), of the iteration matrix with analytic physics columns (whole
+    matrices; ``jacobian_sweeps_ns``: by tangent sweeps) and with finite-difference ones
+    (n_rep/100 + 1 calls each) and of the mass matrix."""
+    r, ns_res, ns_jac, ns_jac_fd, ns_mass, ns_jac_sw, stat, msg = _probes.rc_probe_time_kernels(
         core.handle, float(t), _reals(y), _reals(yd), int(n_rep))
     _raise(core.deck, stat, "", msg)
     return {"residual": r, "residual_ns": ns_res, "jacobian_ns": ns_jac, "jacobian_fd_ns": ns_jac_fd,
-            "mass_matrix_ns": ns_mass}
+            "jacobian_sweeps_ns": ns_jac_sw, "mass_matrix_ns": ns_mass}
+
+
+def eom_derivatives(core: CoreModel, q, v, vdot, lam, t: float = 0.0) -> dict:
+    """The equation-of-motion residual's derivatives as whole matrices at (t, q, v, vdot,
+    lambda): ``dres_dq``, ``dres_dv`` (lambda fixed) and ``mass`` (d(res)/d(vdot)), by the
+    core's one-pass analytic derivatives."""
+    lam_in = np.zeros(max(core.nc, 1))
+    lam_in[:core.nc] = lam
+    dq, dv, m, stat, msg = _probes.rc_probe_eom_derivatives(core.handle, float(t), _reals(q), _reals(v),
+                                                           _reals(vdot), lam_in)
+    _raise(core.deck, stat, "", msg)
+    return {"dres_dq": dq, "dres_dv": dv, "mass": m}
 
 
 def articulated_solve(core: CoreModel, q, armature, tau, t: float = 0.0) -> np.ndarray:

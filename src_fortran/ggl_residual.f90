@@ -17,6 +17,7 @@ module rotorcable_ggl_residual
   use rotorcable_ida_binding, only: N_VGetArrayPointer, SUNDenseMatrix_Data, IDAGetNumSteps, &
                                     IDAGetNumNonlinSolvConvFails
   use rotorcable_ggl_linear_solver, only: ggl_block_solver
+  use rotorcable_model_derivatives, only: eom_derivatives, constraint_derivatives
   implicit none
   private
   public :: ida_user_data, ggl_residual, ggl_residual_dense, ggl_residual_tangent, ggl_residual_tangent_columns, &
@@ -31,6 +32,7 @@ module rotorcable_ggl_residual
     type(ggl_block_solver), pointer :: block => null()  !< told cj by ggl_jacobian
     type(c_ptr) :: mem = c_null_ptr           !< IDA memory (step and failure counters)
     real(dp), allocatable :: physics(:, :)    !< kept physics columns of the Jacobian
+    real(dp), allocatable :: mass(:, :)       !< M at the state of the physics columns just formed
     logical :: physics_valid = .false.
     integer(c_long) :: physics_step = 0       !< IDA's step count when they were formed
     integer(c_long) :: physics_fails = 0      !< IDA's convergence failures then
@@ -97,36 +99,90 @@ contains
   !> multiply cj, are tangent sweeps or central differences at fixed y' (physics_jacobian).
   !> IDA's DQ perturbs y and y' = cj*inc together, so at the tiny first steps of tight
   !> tolerances (cj ~ 1e20) its columns would be round-off: the corrector then fails at t = 0.
-  subroutine ggl_jacobian_dense(model, t, cj, y, yd, jac, analytic)
+  !> Analytic columns come whole (physics_jacobian_whole), and M with them.
+  subroutine ggl_jacobian_dense(model, t, cj, y, yd, jac, analytic, sweeps)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t, cj             !< time [s], IDA's cj = alpha/h [1/s]
     real(dp), intent(in) :: y(:), yd(:)       !< unknowns and their derivatives
     real(dp), intent(out) :: jac(:, :)        !< (n,n) iteration matrix
-    logical, intent(in) :: analytic           !< physics columns by tangent sweeps, else differences
-    call physics_jacobian(model, t, y, yd, jac, analytic)
-    call add_exact_blocks(model, t, cj, y, jac)
+    logical, intent(in) :: analytic           !< analytic physics columns, else differences
+    !> analytic columns by one tangent sweep each (physics_jacobian_sweeps: the check of the
+    !> whole-matrix derivatives) instead of whole
+    logical, intent(in), optional :: sweeps
+    real(dp) :: m(model%nq, model%nq)
+    if (analytic .and. .not. optional_true(sweeps)) then
+      call physics_jacobian_whole(model, t, y, yd, jac, m)
+      call add_exact_blocks(model, t, cj, y, jac, m)
+    else
+      call physics_jacobian(model, t, y, yd, jac, analytic, sweeps)
+      call add_exact_blocks(model, t, cj, y, jac)
+    end if
   end subroutine ggl_jacobian_dense
 
+  !> An optional logical's value, .false. when absent.
+  pure logical function optional_true(flag)
+    logical, intent(in), optional :: flag
+    optional_true = .false.
+    if (present(flag)) optional_true = flag
+  end function optional_true
+
   !> The smooth physics columns dF/dq and dF/dv of the GGL residual at fixed y'; they do not
-  !> depend on cj and may be kept over several steps.  Analytic: one tangent sweep
-  !> (ggl_residual_tangent) per column, each starting at the body whose joint the column moves,
-  !> O(n^2) in all and exact to round-off.  Otherwise central differences, kept as the check
-  !> of the analytic columns (tests/test_analytic_jacobian.py).
-  subroutine physics_jacobian(model, t, y, yd, jac, analytic)
+  !> depend on cj and may be kept over several steps.  Analytic: the whole matrices in one pass
+  !> over the bodies and O(1) work per entry (physics_jacobian_whole), exact to round-off; or,
+  !> with `sweeps`, one tangent sweep (ggl_residual_tangent) per column, each starting at the
+  !> body whose joint the column moves, O(n) a column: the independent check of the whole
+  !> matrices (tests/test_analytic_derivatives.py).  Otherwise central differences, the check
+  !> of both (tests/test_analytic_jacobian.py).
+  subroutine physics_jacobian(model, t, y, yd, jac, analytic, sweeps, mass)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t                 !< time [s]
     real(dp), intent(in) :: y(:), yd(:)       !< unknowns and their derivatives
     real(dp), intent(out) :: jac(:, :)        !< (n,n); multiplier columns left zero
-    logical, intent(in) :: analytic           !< tangent sweeps, else central differences
-    if (analytic) then
-      call physics_jacobian_analytic(model, t, y, yd, jac)
+    logical, intent(in) :: analytic           !< analytic, else central differences
+    logical, intent(in), optional :: sweeps   !< analytic by tangent sweeps instead of whole
+    !> M at y, when the columns come whole (they give it with them); untouched otherwise
+    real(dp), intent(inout), optional :: mass(:, :)
+    if (analytic .and. optional_true(sweeps)) then
+      call physics_jacobian_sweeps(model, t, y, yd, jac)
+    else if (analytic) then
+      call physics_jacobian_whole(model, t, y, yd, jac, mass)
     else
       call physics_jacobian_differences(model, t, y, yd, jac)
     end if
   end subroutine physics_jacobian
 
+  !> The physics columns as whole matrices (rotorcable_model_derivatives): rows by rows,
+  !>   q rows:   d(G^T mu)/dq        -I
+  !>   v rows:   d(res)/dq           d(res)/dv        (eq. 3.50's residual, lambda fixed)
+  !>   g rows:   G                   0
+  !>   Gv rows:  d(G v + g_t)/dq     G
+  !> and zero multiplier columns, each entry written once; M with them when asked.
+  subroutine physics_jacobian_whole(model, t, y, yd, jac, mass)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: y(:), yd(:)       !< unknowns and their derivatives
+    real(dp), intent(out) :: jac(:, :)        !< (n,n)
+    real(dp), intent(inout), optional :: mass(:, :)  !< (nq,nq) M at y
+    integer :: nq, nc, n, k
+    nq = model%nq; nc = model%nc; n = 2*nq + 2*nc
+    call eom_derivatives(model, t, y(1:nq), y(nq + 1:2*nq), yd(nq + 1:2*nq), y(2*nq + 1:2*nq + nc), &
+                         jac(nq + 1:2*nq, 1:nq), jac(nq + 1:2*nq, nq + 1:2*nq), mass)
+    jac(1:nq, nq + 1:2*nq) = 0.0_dp
+    do k = 1, nq
+      jac(k, nq + k) = -1.0_dp
+    end do
+    if (nc > 0) then
+      call constraint_derivatives(model, y(2*nq + nc + 1:n), jac(1:nq, 1:nq), jac(2*nq + 1:2*nq + nc, 1:nq), &
+                                  jac(2*nq + nc + 1:n, 1:nq), jac(2*nq + nc + 1:n, nq + 1:2*nq))
+      jac(2*nq + 1:2*nq + nc, nq + 1:2*nq) = 0.0_dp
+      jac(:, 2*nq + 1:n) = 0.0_dp
+    else
+      jac(1:nq, 1:nq) = 0.0_dp
+    end if
+  end subroutine physics_jacobian_whole
+
   !> The physics columns by tangent sweeps: column k moves coordinate k (or its rate) alone.
-  subroutine physics_jacobian_analytic(model, t, y, yd, jac)
+  subroutine physics_jacobian_sweeps(model, t, y, yd, jac)
     type(model_type), intent(inout) :: model
     real(dp), intent(in) :: t
     real(dp), intent(in) :: y(:), yd(:)
@@ -149,7 +205,7 @@ contains
         dy(nq + k) = 0.0_dp
       end do
     end do
-  end subroutine physics_jacobian_analytic
+  end subroutine physics_jacobian_sweeps
 
   !> First-order change dr of the GGL residual for the change (dy, dyd) of (y, y'), O(n), about
   !> (t, y, y') (eom_residual_tangent evaluates the base pass unless the workspace holds it, so a
@@ -294,20 +350,27 @@ contains
 
   !> Add the exact blocks to a physics Jacobian: the y' terms (cj I, cj M by the composite
   !> rigid bodies at q), the multiplier columns -G^T, G^T and g's rows G.
-  subroutine add_exact_blocks(model, t, cj, y, jac)
+  subroutine add_exact_blocks(model, t, cj, y, jac, mass)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t                 !< time [s]
     real(dp), intent(in) :: cj                !< IDA's cj = alpha/h [1/s]
     real(dp), intent(in) :: y(:)              !< unknowns
     real(dp), intent(inout) :: jac(:, :)      !< (n,n) iteration matrix
+    !> M at y, when the caller has it (the whole-matrix derivatives give it); else by the
+    !> composite rigid bodies here
+    real(dp), intent(in), optional :: mass(:, :)
     real(dp) :: g_jac(model%nc, model%nq), m(model%nq, model%nq)
     integer :: nq, nc, j
     nq = model%nq; nc = model%nc
     do j = 1, nq
       jac(j, j) = jac(j, j) + cj
     end do
-    call mass_matrix(model, t, y(1:nq), m)
-    jac(nq + 1:2*nq, nq + 1:2*nq) = jac(nq + 1:2*nq, nq + 1:2*nq) + cj*m
+    if (present(mass)) then
+      jac(nq + 1:2*nq, nq + 1:2*nq) = jac(nq + 1:2*nq, nq + 1:2*nq) + cj*mass
+    else
+      call mass_matrix(model, t, y(1:nq), m)
+      jac(nq + 1:2*nq, nq + 1:2*nq) = jac(nq + 1:2*nq, nq + 1:2*nq) + cj*m
+    end if
     if (nc > 0) then
       call constraint_jacobian(model, t, y(1:nq), g_jac)
       jac(nq + 1:2*nq, 2*nq + 1:2*nq + nc) = -transpose(g_jac)
@@ -330,6 +393,7 @@ contains
     integer(c_long) :: steps, fails
     integer(c_int) :: flag
     integer :: n
+    logical :: fresh
     call c_f_pointer(udata, ud)
     n = 2*ud%nq + 2*ud%nc
     call c_f_pointer(N_VGetArrayPointer(yy), y, [n])
@@ -337,9 +401,12 @@ contains
     call c_f_pointer(SUNDenseMatrix_Data(jmat), a, [n, n])
     flag = IDAGetNumSteps(ud%mem, steps)
     flag = IDAGetNumNonlinSolvConvFails(ud%mem, fails)
+    fresh = .false.
     if (.not. ud%physics_valid .or. fails /= ud%physics_fails .or. steps < ud%physics_step .or. &
         steps - ud%physics_step >= ud%jacobian_max_age) then
-      call physics_jacobian(ud%model, t, y, yd, ud%physics, ud%analytic)
+      if (.not. allocated(ud%mass)) allocate (ud%mass(ud%nq, ud%nq))
+      call physics_jacobian(ud%model, t, y, yd, ud%physics, ud%analytic, mass=ud%mass)
+      fresh = ud%analytic                     ! whole analytic columns bring M at this y
       ud%jac_residuals = ud%jac_residuals + 1
       if (.not. ud%analytic) ud%jac_residuals = ud%jac_residuals + 4*ud%nq - 1
       ud%physics_valid = .true.
@@ -347,7 +414,11 @@ contains
       ud%physics_fails = fails
     end if
     a = ud%physics
-    call add_exact_blocks(ud%model, t, cj, y, a)
+    if (fresh) then
+      call add_exact_blocks(ud%model, t, cj, y, a, ud%mass)
+    else
+      call add_exact_blocks(ud%model, t, cj, y, a)
+    end if
     if (associated(ud%block)) ud%block%cj = cj
     ggl_jacobian = 0
   end function ggl_jacobian

@@ -23,6 +23,7 @@ module rotorcable_model
   use rotorcable_kinematics_tangent, only: chain_tangent, tangent_allocate, positions_tangent, motion_tangent
   use rotorcable_inverse_dynamics_tangent, only: inverse_dynamics_tangent, inertia_linearisation, linearise_inertia
   use rotorcable_chain_tangent_columns, only: tangent_columns
+  use rotorcable_inverse_dynamics_derivatives, only: derivatives_work
   use rotorcable_mass_matrix, only: mass_matrix_crba
   use rotorcable_linalg, only: solve_dense
   use rotorcable_rotations, only: cross
@@ -91,6 +92,7 @@ module rotorcable_model
     real(dp), allocatable :: dtau(:)          !< (nq) change of the applied generalized forces
     type(inertia_linearisation) :: lin_inertia  !< the tangent pass's state-only factors
     type(tangent_columns) :: dst_columns      !< a block of columns' changes (ggl_residual_tangent_columns)
+    type(derivatives_work) :: derivs          !< the whole-matrix derivatives' arrays (rotorcable_model_derivatives)
   end type model_type
 
 contains

@@ -23,12 +23,13 @@ module rotorcable_probes
   use rotorcable_projection, only: constraint_rank_margin
   use rotorcable_articulated_body, only: articulated_factors, articulated_factorise, articulated_solve
   use rotorcable_parameter_sensitivity, only: difference_points, parameter_partial
+  use rotorcable_model_derivatives, only: eom_derivatives
   implicit none
   private
   public :: rc_probe_evaluate, rc_probe_consistent_start, rc_probe_ggl_residual, rc_probe_iteration_matrix, &
             rc_probe_time_kernels, rc_probe_integrate, rc_probe_rank_margin, rc_probe_chain_solver, &
             rc_probe_residual_tangent, rc_probe_residual_tangent_columns, rc_probe_articulated_solve, &
-            rc_probe_parameter_partial
+            rc_probe_parameter_partial, rc_probe_eom_derivatives
 
 contains
 
@@ -100,6 +101,28 @@ contains
     end if
     call to_status(error, stat, msg)
   end subroutine rc_probe_evaluate
+
+  !> The equation-of-motion residual's derivatives as whole matrices at (t, q, v, vdot, lambda):
+  !> d(res)/dq, d(res)/dv at fixed lambda and M = d(res)/d(vdot) (eom_derivatives, one pass; the
+  !> check is rc_probe_residual_tangent's columns and rc_probe_evaluate's M).
+  subroutine rc_probe_eom_derivatives(handle, t, nq, q, v, vdot, ncd, lambda, dres_dq, dres_dv, mass, stat, msg)
+    integer(c_int), intent(in) :: handle          !< model handle
+    real(c_double), intent(in) :: t               !< time [s]
+    integer(c_int), intent(in) :: nq, ncd         !< coordinates, max(1, nc)
+    real(c_double), intent(in) :: q(nq), v(nq), vdot(nq)  !< state and accelerations
+    real(c_double), intent(in) :: lambda(ncd)     !< multipliers
+    real(c_double), intent(out) :: dres_dq(nq, nq)  !< d(res)/dq [Nm/rad]
+    real(c_double), intent(out) :: dres_dv(nq, nq)  !< d(res)/dv [Nms/rad]
+    real(c_double), intent(out) :: mass(nq, nq)     !< M [kg m^2]
+    integer(c_int), intent(out) :: stat           !< 0 = ok
+    character(len=1024), intent(out) :: msg       !< why not
+    type(model_type), pointer :: model
+    type(error_type) :: error
+    dres_dq = 0.0_dp; dres_dv = 0.0_dp; mass = 0.0_dp
+    model => model_of(handle, error)
+    if (error%code == 0) call eom_derivatives(model, t, q, v, vdot, lambda, dres_dq, dres_dv, mass)
+    call to_status(error, stat, msg)
+  end subroutine rc_probe_eom_derivatives
 
   !> The consistent start from (q, v) at t, as the GGL unknowns y = (q, v, lambda, mu = 0) and
   !> their derivatives yd = (v, vdot, 0, 0).
@@ -342,7 +365,8 @@ contains
   subroutine rc_probe_iteration_matrix(handle, t, cj, n, y, yd, analytic, n_rhs, b, n_rep, jac, x_block, &
                                        ns_block_factor, ns_block_solve, ns_dense_factor, ns_dense_solve, stat, msg)
     integer(c_int), intent(in) :: handle          !< model handle
-    integer(c_int), intent(in) :: analytic        !< physics columns: 1 tangent sweeps, 0 differences
+    !> physics columns: 1 analytic (whole matrices), 2 analytic by tangent sweeps, 0 differences
+    integer(c_int), intent(in) :: analytic
     real(c_double), intent(in) :: t, cj           !< time [s], IDA's cj = alpha/h [1/s]
     integer(c_int), intent(in) :: n, n_rhs        !< GGL unknowns 2 nq + 2 nc, right-hand sides
     real(c_double), intent(in) :: y(n), yd(n)     !< state of the matrix
@@ -373,7 +397,7 @@ contains
     end if
     nq = model%nq; nc = model%nc
     allocate (lu(n, n), x(n), pivots(n))
-    call ggl_jacobian_dense(model, t, cj, y, yd, jac, analytic /= 0)
+    call ggl_jacobian_dense(model, t, cj, y, yd, jac, analytic /= 0, sweeps=analytic == 2)
     block%nq = nq; block%nc = nc; block%cj = cj
     allocate (block%k(nq, nq), block%k_pivots(nq), block%kq(nq, nq), block%b1_rows(nq + 2*nc, nq), block%g_t(nq, nc), &
               block%cq(nc, nq), block%c_rows(2*nc, nq), block%kinv_b(nq, 2*nc), &
@@ -419,7 +443,7 @@ contains
   !> Cost of the integrator's kernels at (y, y'), timed in a loop here (no Python call
   !> overhead): one GGL residual, one structured Jacobian and one mass matrix.
   subroutine rc_probe_time_kernels(handle, t, n, y, yd, n_rep, residual, ns_residual, ns_jacobian, ns_jacobian_fd, &
-                                   ns_mass, stat, msg)
+                                   ns_mass, ns_jacobian_sweeps, stat, msg)
     integer(c_int), intent(in) :: handle          !< model handle
     real(c_double), intent(in) :: t               !< time [s]
     integer(c_int), intent(in) :: n               !< GGL unknowns 2 nq + 2 nc
@@ -428,6 +452,7 @@ contains
     real(c_double), intent(out) :: residual(n)    !< residual at the state
     real(c_double), intent(out) :: ns_residual    !< wall time per residual [ns]
     real(c_double), intent(out) :: ns_jacobian    !< wall time per Jacobian, analytic physics columns [ns]
+    real(c_double), intent(out) :: ns_jacobian_sweeps  !< the same by tangent sweeps [ns]
     real(c_double), intent(out) :: ns_jacobian_fd !< the same with finite-difference columns [ns]
     real(c_double), intent(out) :: ns_mass        !< wall time per mass matrix [ns]
     integer(c_int), intent(out) :: stat           !< 0 = ok
@@ -439,6 +464,7 @@ contains
     integer :: i, n_jac
     real(dp) :: sink
     residual = 0.0_dp; ns_residual = 0.0_dp; ns_jacobian = 0.0_dp; ns_jacobian_fd = 0.0_dp; ns_mass = 0.0_dp
+    ns_jacobian_sweeps = 0.0_dp
     model => model_of(handle, error)
     if (error%code /= 0) then
       call to_status(error, stat, msg)
@@ -455,8 +481,9 @@ contains
     call system_clock(k1)
     ns_residual = 1.0e9_dp*real(k1 - k0, dp)/real(rate, dp)/n_rep
     n_jac = n_rep/100 + 1
-    ns_jacobian = ns_per_jacobian(.true.)
-    ns_jacobian_fd = ns_per_jacobian(.false.)
+    ns_jacobian = ns_per_jacobian(.true., .false.)
+    ns_jacobian_sweeps = ns_per_jacobian(.true., .true.)
+    ns_jacobian_fd = ns_per_jacobian(.false., .false.)
     call system_clock(k0)
     do i = 1, n_rep
       call mass_matrix(model, t, y(1:model%nq), m)
@@ -470,12 +497,13 @@ contains
 
   contains
 
-    !> Wall time of one iteration matrix [ns], physics columns analytic or by differences.
-    real(dp) function ns_per_jacobian(analytic)
-      logical, intent(in) :: analytic
+    !> Wall time of one iteration matrix [ns], physics columns analytic (whole or by sweeps) or
+    !> by differences.
+    real(dp) function ns_per_jacobian(analytic, sweeps)
+      logical, intent(in) :: analytic, sweeps
       call system_clock(k0)
       do i = 1, n_jac
-        call ggl_jacobian_dense(model, t, 1.0e3_dp, y, yd, jac, analytic)
+        call ggl_jacobian_dense(model, t, 1.0e3_dp, y, yd, jac, analytic, sweeps)
         sink = sink + jac(1, 1)
       end do
       call system_clock(k1)

@@ -11,7 +11,7 @@ module rotorcable_loads_anchor
   use rotorcable_kinematics, only: chain_state
   use rotorcable_kinematics_tangent, only: chain_tangent
   use rotorcable_frame, only: frame_state
-  use rotorcable_rotations, only: cross
+  use rotorcable_rotations, only: cross, skew
   use rotorcable_loads_type, only: load_term, load_slot
   use rotorcable_parameter_block, only: parameter_block, get_real, get_reals, get_int
   implicit none
@@ -27,6 +27,7 @@ module rotorcable_loads_anchor
   contains
     procedure :: add_forces
     procedure :: add_force_tangent
+    procedure :: add_force_jacobians
     procedure :: potential
   end type anchor_load
 
@@ -76,6 +77,25 @@ contains
     dmoment(:, b) = dmoment(:, b) + cross(dst%djoint_point(:, j) - dst%dcm(:, b), f) &
                     + cross(st%joint_point(:, j) - st%cm(:, b), df)
   end subroutine add_force_tangent
+
+  !> With r = P_j - C_b (dP_j = dC - [r] dtheta): dF = -k dC + k [r] dtheta and
+  !> dM = (dtheta x r) x F + r x dF = -k [r] dC + ([F] [r] + k [r] [r]) dtheta.
+  pure subroutine add_force_jacobians(self, chain, st, fs, t, q, v, pose, motion, joint_q, joint_v)
+    class(anchor_load), intent(in) :: self
+    include 'force_jacobians_arguments.inc'
+    real(dp) :: f(3), r(3, 3)
+    integer :: b, j, i
+    b = self%body
+    j = self%joint
+    f = -self%stiffness*(st%joint_point(:, j) - self%point)
+    r = skew(st%joint_point(:, j) - st%cm(:, b))
+    do i = 1, 3
+      pose(i, i, b) = pose(i, i, b) - self%stiffness
+    end do
+    pose(1:3, 4:6, b) = pose(1:3, 4:6, b) + self%stiffness*r
+    pose(4:6, 1:3, b) = pose(4:6, 1:3, b) - self%stiffness*r
+    pose(4:6, 4:6, b) = pose(4:6, 4:6, b) + matmul(skew(f), r) + self%stiffness*matmul(r, r)
+  end subroutine add_force_jacobians
 
   pure real(dp) function potential(self, chain, st, q) result(e)
     class(anchor_load), intent(in) :: self

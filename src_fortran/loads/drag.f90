@@ -14,7 +14,7 @@ module rotorcable_loads_drag
   use rotorcable_chain, only: chain_type
   use rotorcable_kinematics, only: chain_state, motion_seed
   use rotorcable_kinematics_tangent, only: chain_tangent
-  use rotorcable_rotations, only: cross
+  use rotorcable_rotations, only: cross, skew
   use rotorcable_frame, only: frame_state
   use rotorcable_loads_type, only: load_term, load_slot
   use rotorcable_parameter_block, only: parameter_block, get_real, get_reals
@@ -38,6 +38,7 @@ module rotorcable_loads_drag
     procedure :: conservative_at_rest
     procedure :: linearise
     procedure :: add_force_tangent
+    procedure :: add_force_jacobians
   end type drag_load
 
 contains
@@ -122,6 +123,36 @@ contains
     call drag_tangent_pass(chain%n_bodies, dst%first, self%cd_area, self%axis, self%air, self%normal_air, &
                            self%air_along, self%normal_speed, dst%dtheta, dst%dvel_cm, dforce)
   end subroutine add_force_tangent
+
+  !> add_force_tangent's formula as matrices: with D = d(|u_n| u_n)/du_n = |u_n| I + u_n u_n^T / |u_n|
+  !> and P = I - e e^T, du_n = -P dv_C + (e (u x e)^T + (u . e) [e]) dtheta (de = -[e] dtheta,
+  !> u . de = (u x e) . dtheta), so dF = -k D P dv_C + k D (e (u x e)^T + (u . e) [e]) dtheta.
+  !> The state's factors from linearise.
+  pure subroutine add_force_jacobians(self, chain, st, fs, t, q, v, pose, motion, joint_q, joint_v)
+    class(drag_load), intent(in) :: self
+    include 'force_jacobians_arguments.inc'
+    real(dp) :: d(3, 3), p(3, 3), ue(3), e(3), un(3), size_un
+    integer :: j, i
+    do j = 1, chain%n_bodies
+      size_un = self%normal_speed(j)
+      if (.not. size_un > 0.0_dp) cycle
+      e = self%axis(:, j)
+      un = self%normal_air(:, j)
+      ue = cross(self%air(:, j), e)
+      do i = 1, 3
+        d(:, i) = self%cd_area(j)*(un*un(i)/size_un)
+        d(i, i) = d(i, i) + self%cd_area(j)*size_un
+        p(:, i) = -e*e(i)
+        p(i, i) = p(i, i) + 1.0_dp
+      end do
+      motion(1:3, 1:3, j) = motion(1:3, 1:3, j) - matmul(d, p)
+      do i = 1, 3
+        p(:, i) = e*ue(i)
+      end do
+      p = p + self%air_along(j)*skew(e)
+      pose(1:3, 4:6, j) = pose(1:3, 4:6, j) + matmul(d, p)
+    end do
+  end subroutine add_force_jacobians
 
   !> add_force_tangent's loop on explicit-shape arrays (why: rotorcable_kinematics_tangent,
   !> motion_tangent_pass); the arithmetic of the formula above, in its order.

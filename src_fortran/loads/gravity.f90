@@ -20,6 +20,7 @@ module rotorcable_loads_gravity
   contains
     procedure :: add_forces
     procedure :: add_force_tangent
+    procedure :: add_force_jacobians
     procedure :: potential
   end type gravity_load
 
@@ -51,6 +52,13 @@ contains
     ! m g at the CM does not change; its moment about the joint point moves with the CM, which
     ! the Newton-Euler tangent takes care of.
   end subroutine add_force_tangent
+
+  pure subroutine add_force_jacobians(self, chain, st, fs, t, q, v, pose, motion, joint_q, joint_v)
+    class(gravity_load), intent(in) :: self
+    include 'force_jacobians_arguments.inc'
+    ! The same constant force at the CM, whichever way the body moves (its turn against a world-fixed
+    ! m g is the caller's: the force's value is all it needs).
+  end subroutine add_force_jacobians
 
   pure real(dp) function potential(self, chain, st, q) result(e)
     class(gravity_load), intent(in) :: self

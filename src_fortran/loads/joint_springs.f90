@@ -25,6 +25,7 @@ module rotorcable_loads_joint_springs
   contains
     procedure :: add_forces
     procedure :: add_force_tangent
+    procedure :: add_force_jacobians
     procedure :: potential
     procedure :: joint_diagonal
     procedure :: set_parameter
@@ -62,6 +63,19 @@ contains
     include 'force_tangent_arguments.inc'
     dtau = dtau - self%stiffness*dq - self%damping*dv
   end subroutine add_force_tangent
+
+  pure subroutine add_force_jacobians(self, chain, st, fs, t, q, v, pose, motion, joint_q, joint_v)
+    class(joint_springs_load), intent(in) :: self
+    include 'force_jacobians_arguments.inc'
+    integer :: j, l, k
+    do j = 1, chain%n_bodies
+      do l = 1, chain%n_joint_coords(j)
+        k = chain%first_coord(j) + l - 1
+        joint_q(l, l, j) = joint_q(l, l, j) - self%stiffness(k)
+        joint_v(l, l, j) = joint_v(l, l, j) - self%damping(k)
+      end do
+    end do
+  end subroutine add_force_jacobians
 
   pure real(dp) function potential(self, chain, st, q) result(e)
     class(joint_springs_load), intent(in) :: self

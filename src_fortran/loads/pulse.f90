@@ -26,6 +26,7 @@ module rotorcable_loads_pulse
   contains
     procedure :: add_forces
     procedure :: add_force_tangent
+    procedure :: add_force_jacobians
     procedure :: switch_times
     procedure :: set_parameter
     procedure :: get_parameter
@@ -69,6 +70,12 @@ contains
     include 'force_tangent_arguments.inc'
     ! A constant force at the CM: no change (its lever arm is the Newton-Euler tangent's).
   end subroutine add_force_tangent
+
+  pure subroutine add_force_jacobians(self, chain, st, fs, t, q, v, pose, motion, joint_q, joint_v)
+    class(pulse_load), intent(in) :: self
+    include 'force_jacobians_arguments.inc'
+    ! A constant force at the CM: no change (as add_force_tangent).
+  end subroutine add_force_jacobians
 
   pure subroutine switch_times(self, times)
     class(pulse_load), intent(in) :: self

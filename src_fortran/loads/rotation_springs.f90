@@ -52,6 +52,7 @@ module rotorcable_loads_rotation_springs
     procedure :: add_forces
     procedure :: linearise
     procedure :: add_force_tangent
+    procedure :: add_force_jacobians
     procedure :: potential
     procedure :: joint_diagonal
     procedure :: set_parameter
@@ -248,6 +249,18 @@ contains
       end do
     end do
   end subroutine add_force_tangent
+
+  !> linearise's matrix of every free joint, which is this very derivative.
+  pure subroutine add_force_jacobians(self, chain, st, fs, t, q, v, pose, motion, joint_q, joint_v)
+    class(rotation_springs_load), intent(in) :: self
+    include 'force_jacobians_arguments.inc'
+    integer :: j
+    do j = 1, chain%n_bodies
+      if (chain%locked(j)) cycle
+      joint_q(1:3, 1:3, j) = joint_q(1:3, 1:3, j) + self%torque_tangent(:, 1:3, j)
+      joint_v(1:3, 1:3, j) = joint_v(1:3, 1:3, j) + self%torque_tangent(:, 4:6, j)
+    end do
+  end subroutine add_force_jacobians
 
   !> d(tau_j) for the joint's own change (d_angles, d_rates) at its joint_terms (phi, A, c,
   !> dc/da), stiffness k, damping d and rates.  With delta = A dq the relative rotation's change

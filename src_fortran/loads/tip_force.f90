@@ -8,7 +8,7 @@ module rotorcable_loads_tip_force
   use rotorcable_kinematics, only: chain_state
   use rotorcable_kinematics_tangent, only: chain_tangent
   use rotorcable_frame, only: frame_state
-  use rotorcable_rotations, only: cross
+  use rotorcable_rotations, only: cross, skew
   use rotorcable_loads_type, only: load_term, load_slot
   use rotorcable_parameter_block, only: parameter_block, get_reals
   implicit none
@@ -21,6 +21,7 @@ module rotorcable_loads_tip_force
   contains
     procedure :: add_forces
     procedure :: add_force_tangent
+    procedure :: add_force_jacobians
     procedure :: potential
   end type tip_force_load
 
@@ -58,6 +59,15 @@ contains
     darm = dst%djoint_point(:, n + 1) - dst%dcm(:, n)
     dmoment(:, n) = dmoment(:, n) + cross(darm, self%force)
   end subroutine add_force_tangent
+
+  !> The moment (P_{n+1} - C_n) x F turns with the last body: d = (dtheta x r) x F = [F] [r] dtheta.
+  pure subroutine add_force_jacobians(self, chain, st, fs, t, q, v, pose, motion, joint_q, joint_v)
+    class(tip_force_load), intent(in) :: self
+    include 'force_jacobians_arguments.inc'
+    integer :: n
+    n = chain%n_bodies
+    pose(4:6, 4:6, n) = pose(4:6, 4:6, n) + matmul(skew(self%force), skew(st%joint_point(:, n + 1) - st%cm(:, n)))
+  end subroutine add_force_jacobians
 
   pure real(dp) function potential(self, chain, st, q) result(e)
     class(tip_force_load), intent(in) :: self

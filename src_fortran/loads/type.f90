@@ -39,6 +39,14 @@ module rotorcable_loads_type
     !> velocities of rotorcable_kinematics_tangent) and dq, dv; the analytic Jacobian.  Every
     !> load states its own derivative: a new load is not complete without it.
     procedure(add_force_tangent_interface), deferred :: add_force_tangent
+    !> Add the same derivatives as matrices, for the Jacobian taken whole
+    !> (rotorcable_model_derivatives): for every body, its forces' derivatives by the body's own
+    !> pose and motion, and for every joint, its generalized forces' derivatives by the joint's
+    !> own coordinates and rates (force_jacobians_arguments.inc).  A load's force on a body
+    !> depends on that body's motion alone, and its generalized forces on their joint's alone:
+    !> every load of the registry does (a load coupling bodies would need a matrix of its own).
+    !> Called after linearise at the same state.
+    procedure(add_force_jacobians_interface), deferred :: add_force_jacobians
     !> Potential energy at the frames in st (0 if the load has none, see has_potential).
     procedure :: potential => no_potential
     !> Whether the load is conservative with the potential above (its `conservative` flag).
@@ -82,6 +90,14 @@ module rotorcable_loads_type
       class(load_term), intent(in) :: self    !< the load
       include 'force_tangent_arguments.inc'
     end subroutine add_force_tangent_interface
+
+    !> Add d(force, moment)/d(pose), /d(motion) (6,6,n) and the joints' d(tau)/dq, d(tau)/dv
+    !> (3,3,n) at (st, t).
+    pure subroutine add_force_jacobians_interface(self, chain, st, fs, t, q, v, pose, motion, joint_q, joint_v)
+      import :: load_term, chain_type, chain_state, frame_state, dp
+      class(load_term), intent(in) :: self    !< the load
+      include 'force_jacobians_arguments.inc'
+    end subroutine add_force_jacobians_interface
   end interface
 
 contains

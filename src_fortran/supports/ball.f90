@@ -20,6 +20,7 @@ module rotorcable_supports_ball
   use rotorcable_kinematics, only: chain_state
   use rotorcable_kinematics_tangent, only: chain_tangent
   use rotorcable_frame, only: frame_state
+  use rotorcable_rotations, only: skew
   use rotorcable_motion_rotor, only: rotor_state
   use rotorcable_motion_rigid_motion, only: rigid_motion, motion_state, motion_at, point_motion, motion_free
   use rotorcable_motion_builder, only: motion_from_block
@@ -53,6 +54,8 @@ module rotorcable_supports_ball
     procedure :: velocity_tangent
     procedure :: add_jacobian_transpose_tangent
     procedure :: wrench_tangent
+    procedure :: wrench_jacobian
+    procedure :: rows_jacobian
     procedure :: closure
     procedure :: closure_rows
     procedure :: blend_target
@@ -211,6 +214,34 @@ contains
     dforce = dlambda(1:3)
     dmoment = 0.0_dp
   end subroutine wrench_tangent
+
+  !> A force at the tip, fixed by the multipliers: it does not change with the body.
+  pure subroutine wrench_jacobian(self, chain, st, lambda, d_wrench)
+    class(ball_support), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    real(dp), intent(in) :: lambda(:)
+    real(dp), intent(out) :: d_wrench(6, 6)
+    d_wrench = 0.0_dp
+  end subroutine wrench_jacobian
+
+  !> g = P_tip - p_B: dg = dP;  G v + g_t = v_tip - Omega x (P_tip - c) - v_B: d = dv - Omega x dP.
+  pure subroutine rows_jacobian(self, chain, st, fs, dg_pose, dgv_pose, dgv_motion)
+    class(ball_support), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    type(frame_state), intent(in) :: fs
+    real(dp), intent(out) :: dg_pose(:, :), dgv_pose(:, :), dgv_motion(:, :)
+    integer :: i
+    dg_pose(1:3, :) = 0.0_dp
+    dgv_pose(1:3, :) = 0.0_dp
+    dgv_motion(1:3, :) = 0.0_dp
+    do i = 1, 3
+      dg_pose(i, i) = 1.0_dp
+      dgv_motion(i, i) = 1.0_dp
+    end do
+    if (fs%rotating) dgv_pose(1:3, 1:3) = -skew(fs%omega)
+  end subroutine rows_jacobian
 
   !> The position rows themselves: they have no spurious roots (the clamp's orientation rows do).
   pure subroutine closure(self, chain, st, r, r_jac)

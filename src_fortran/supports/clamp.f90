@@ -66,6 +66,8 @@ module rotorcable_supports_clamp
     procedure :: velocity_tangent
     procedure :: add_jacobian_transpose_tangent
     procedure :: wrench_tangent
+    procedure :: wrench_jacobian
+    procedure :: rows_jacobian
     procedure :: closure
     procedure :: closure_rows
     procedure :: blend_target
@@ -280,6 +282,56 @@ contains
     dmoment = matmul(lambda(4:6), rate_map(orientation_error_tangent(self, st, dst))) &
               + matmul(dlambda(4:6), self%t_lin)
   end subroutine wrench_tangent
+
+  !> The ball's force at the tip and the moment M_B = T^T lambda_rot, dM_B = dT^T lambda_rot with
+  !> dT = rate_map([dtheta_n] E): column k the turn about e_k (the moment is linear in dtheta).
+  pure subroutine wrench_jacobian(self, chain, st, lambda, d_wrench)
+    class(clamp_support), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    real(dp), intent(in) :: lambda(:)
+    real(dp), intent(out) :: d_wrench(6, 6)
+    real(dp) :: e(3, 3)
+    integer :: k
+    call self%ball_support%wrench_jacobian(chain, st, lambda, d_wrench)
+    e = orientation_error(self, st)
+    do k = 1, 3
+      d_wrench(4:6, 3 + k) = matmul(lambda(4:6), rate_map(matmul(skew(unit(k)), e)))
+    end do
+  end subroutine wrench_jacobian
+
+  !> The ball's position rows and the orientation rows: dg_rot = vee(dE - dE^T)/2, d(T w_n - T^T w_B)
+  !> = dT w_n + T dw_n - dT^T w_B (w_n relative to the frame), dE = [dtheta_n] E, column by column.
+  pure subroutine rows_jacobian(self, chain, st, fs, dg_pose, dgv_pose, dgv_motion)
+    class(clamp_support), intent(in) :: self
+    type(chain_type), intent(in) :: chain
+    type(chain_state), intent(in) :: st
+    type(frame_state), intent(in) :: fs
+    real(dp), intent(out) :: dg_pose(:, :), dgv_pose(:, :), dgv_motion(:, :)
+    real(dp) :: e(3, 3), de(3, 3), dt(3, 3), w_n(3)
+    integer :: k
+    call self%ball_support%rows_jacobian(chain, st, fs, dg_pose, dgv_pose, dgv_motion)
+    e = orientation_error(self, st)
+    w_n = st%omega(:, chain%n_bodies) - fs%omega
+    dg_pose(4:6, :) = 0.0_dp
+    dgv_pose(4:6, :) = 0.0_dp
+    dgv_motion(4:6, :) = 0.0_dp
+    do k = 1, 3
+      de = matmul(skew(unit(k)), e)
+      dt = rate_map(de)
+      dg_pose(4:6, 3 + k) = 0.5_dp*vee(de - transpose(de))
+      dgv_pose(4:6, 3 + k) = matmul(dt, w_n) - matmul(self%omega, dt)
+    end do
+    dgv_motion(4:6, 4:6) = rate_map(e)
+  end subroutine rows_jacobian
+
+  !> The unit vector e_k.
+  pure function unit(k) result(u)
+    integer, intent(in) :: k
+    real(dp) :: u(3)
+    u = 0.0_dp
+    u(k) = 1.0_dp
+  end function unit
 
   !> (tip - p_B, E - I), 3 + 9 rows, and its Jacobian (dE/dq_k = [a_k] E).  g_rot also vanishes
   !> at a half-turn error (E = 2uu^T - I, where T has rank 1), so a Gauss-Newton closure on g

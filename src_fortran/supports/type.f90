@@ -45,6 +45,15 @@ module rotorcable_supports_type
     procedure(velocity_tangent_i), deferred :: velocity_tangent
     procedure(add_jt_tangent_i), deferred :: add_jacobian_transpose_tangent
     procedure(wrench_tangent_i), deferred :: wrench_tangent
+    !> The same derivatives as matrices, for the Jacobian taken whole (rotorcable_model_derivatives):
+    !> by the last body's own motion, a shift dP of the tip P_{n+1} and a turn dtheta_n about it
+    !> (pose, columns 1:3 and 4:6), or a change dv of the tip's absolute velocity and domega_n of
+    !> the body's angular velocity (motion).  wrench_jacobian: d(F, M)/d(pose) (rows 1:3 the
+    !> force at the tip, 4:6 the moment) of the wrench of multipliers lambda (or of mu: the
+    !> generalized force G^T mu is that of the same wrench).  rows_jacobian: d(g)/d(pose),
+    !> d(G v + g_t)/d(pose) and d(G v + g_t)/d(motion), (nc, 6) each.
+    procedure(wrench_jacobian_i), deferred :: wrench_jacobian
+    procedure(rows_jacobian_i), deferred :: rows_jacobian
     !> A closure residual without spurious roots and its Jacobian (for projecting a start shape).
     procedure(closure_i), deferred :: closure
     !> Size of the closure residual.
@@ -159,6 +168,24 @@ module rotorcable_supports_type
       real(dp), intent(in) :: lambda(:), dlambda(:)
       real(dp), intent(out) :: dforce(3), dmoment(3)
     end subroutine wrench_tangent_i
+
+    pure subroutine wrench_jacobian_i(self, chain, st, lambda, d_wrench)
+      import :: support_type, chain_type, chain_state, dp
+      class(support_type), intent(in) :: self
+      type(chain_type), intent(in) :: chain
+      type(chain_state), intent(in) :: st
+      real(dp), intent(in) :: lambda(:)
+      real(dp), intent(out) :: d_wrench(6, 6)
+    end subroutine wrench_jacobian_i
+
+    pure subroutine rows_jacobian_i(self, chain, st, fs, dg_pose, dgv_pose, dgv_motion)
+      import :: support_type, chain_type, chain_state, frame_state, dp
+      class(support_type), intent(in) :: self
+      type(chain_type), intent(in) :: chain
+      type(chain_state), intent(in) :: st
+      type(frame_state), intent(in) :: fs
+      real(dp), intent(out) :: dg_pose(:, :), dgv_pose(:, :), dgv_motion(:, :)
+    end subroutine rows_jacobian_i
 
     pure subroutine closure_i(self, chain, st, r, r_jac)
       import :: support_type, chain_type, chain_state, dp
