@@ -135,13 +135,15 @@ def chain_solver(core: CoreModel, y, cj: float, b, n_rep: int = 1, t: float = 0.
 def time_kernels(core: CoreModel, y, yd, n_rep: int, t: float = 0.0) -> dict:
     """The residual at (t, y, y') and the wall time per call [ns] of the residual (timed over
     ``n_rep`` calls in Fortran), of the iteration matrix with analytic physics columns (whole
-    matrices; ``jacobian_sweeps_ns``: by tangent sweeps) and with finite-difference ones
-    (n_rep/100 + 1 calls each) and of the mass matrix."""
-    r, ns_res, ns_jac, ns_jac_fd, ns_mass, ns_jac_sw, stat, msg = _probes.rc_probe_time_kernels(
+    matrices; ``jacobian_sweeps_ns``: by tangent sweeps) and with finite-difference ones, of the
+    equation of motion's derivatives d(res)/dq, d(res)/dv and M (``derivatives_ns``; n_rep/100 + 1
+    calls each) and of the mass matrix.  Each call but the mass matrix's is at a new time, so
+    it pays for its own residual pass (none finds it in the workspace)."""
+    r, ns_res, ns_jac, ns_jac_fd, ns_mass, ns_jac_sw, ns_der, stat, msg = _probes.rc_probe_time_kernels(
         core.handle, float(t), _reals(y), _reals(yd), int(n_rep))
     _raise(core.deck, stat, "", msg)
     return {"residual": r, "residual_ns": ns_res, "jacobian_ns": ns_jac, "jacobian_fd_ns": ns_jac_fd,
-            "jacobian_sweeps_ns": ns_jac_sw, "mass_matrix_ns": ns_mass}
+            "jacobian_sweeps_ns": ns_jac_sw, "derivatives_ns": ns_der, "mass_matrix_ns": ns_mass}
 
 
 def eom_derivatives(core: CoreModel, q, v, vdot, lam, t: float = 0.0) -> dict:
