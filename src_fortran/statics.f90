@@ -3,11 +3,12 @@
 module rotorcable_statics
   use rotorcable_kinds, only: dp
   use rotorcable_errors, only: error_type, fatal_error
-  use rotorcable_model, only: model_type, support_b_key, eom_residual, eom_residual_tangent, constraint_residual, &
+  use rotorcable_model, only: model_type, support_b_key, eom_residual, constraint_residual, &
                               constraint_jacobian, total_energy, &
                               all_conservative
   use rotorcable_projection, only: project_positions, constraint_rank_margin, rank_loss_message, RANK_TOL
   use rotorcable_linalg, only: solve_least_norm, null_space, solve_spd, solve_dense
+  use rotorcable_model_derivatives, only: eom_derivatives
   implicit none
   private
   public :: static_settings, static_result, solve_static, tangent_stiffness, damping_matrix, static_system
@@ -89,10 +90,11 @@ contains
     call rest_tangent(model, t, q, lambda, .true., d_mat)
   end subroutine damping_matrix
 
-  !> Columns of d(residual at rest)/dq (rates = .false.) or d/dv (rates = .true.) at v = vdot = 0
-  !> and fixed lambda: one O(n) tangent sweep per coordinate (eom_residual_tangent; the sweeps
-  !> and their tests: docs/jacobian.md), exact, where central differences cost two residuals per
-  !> column and carried ~1e-10 of truncation and round-off.
+  !> d(residual at rest)/dq (rates = .false.) or d/dv (rates = .true.) at v = vdot = 0 and
+  !> fixed lambda: the whole matrices of one recursive pass (eom_derivatives, issue 39), exact;
+  !> the same columns by one tangent sweep each (eom_residual_tangent) are their check
+  !> (tests/test_analytic_derivatives.py).  Central differences cost two residuals per column
+  !> and carried ~1e-10 of truncation and round-off.
   subroutine rest_tangent(model, t, q, lambda, rates, mat)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t                 !< time [s]
@@ -100,27 +102,17 @@ contains
     real(dp), intent(in) :: lambda(:)         !< multipliers
     logical, intent(in) :: rates              !< derivative with respect to the rates
     real(dp), intent(out) :: mat(:, :)        !< (nq,nq)
-    real(dp) :: zero(size(q)), dq(size(q)), dv(size(q)), f(size(q)), lam(max(model%nc, 1)), dlam(max(model%nc, 1))
-    integer :: j, k
+    real(dp) :: zero(size(q)), lam(max(model%nc, 1))
+    real(dp), allocatable :: other(:, :)      ! the derivative not asked for (heap: nq^2 can be MBs)
     zero = 0.0_dp
     lam = 0.0_dp
     lam(1:model%nc) = lambda
-    dlam = 0.0_dp
-    call eom_residual(model, t, q, zero, zero, lam, f)       ! the state the sweeps start from
-    dq = 0.0_dp
-    dv = 0.0_dp
-    do j = 1, model%chain%n_bodies
-      do k = model%chain%first_coord(j), model%chain%first_coord(j) + model%chain%n_joint_coords(j) - 1
-        if (rates) then
-          dv(k) = 1.0_dp
-        else
-          dq(k) = 1.0_dp
-        end if
-        call eom_residual_tangent(model, t, q, zero, zero, lam, dq, dv, zero, dlam, j, mat(:, k))
-        dq(k) = 0.0_dp
-        dv(k) = 0.0_dp
-      end do
-    end do
+    allocate (other(size(q), size(q)))
+    if (rates) then
+      call eom_derivatives(model, t, q, zero, zero, lam, other, mat)
+    else
+      call eom_derivatives(model, t, q, zero, zero, lam, mat, other)
+    end if
   end subroutine rest_tangent
 
   !> The equilibrium equations at a given state and their Jacobian, for the implicit function

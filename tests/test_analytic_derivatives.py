@@ -109,3 +109,24 @@ def test_whole_matrices_are_the_tangent_sweeps_with_ball_b(tmp_path):
     """Ball B: three constraint rows of the tip point, whose second derivatives enter the q
     rows' d(G^T mu)/dq and the velocity constraint's d(G v)/dq."""
     _check_model(pydriver.Model.from_deck(ball_deck(tmp_path, "dynamic")[0]))
+
+
+@pytest.mark.parametrize("stem", ["uh60_part2_modal", "uh60_part2_campbell", "uh60_part2_forward_flight_cable"])
+def test_rest_stiffness_and_damping_are_the_tangent_sweeps(stem):
+    """Statics and the modal analyses take K = d(residual at rest)/dq and D = d/dv (v = vdot = 0,
+    multipliers fixed) from the whole matrices too (statics.f90, rest_tangent): K of the static
+    system and the modal D_r = N^T D N against the sweeps' columns at rest, at a random
+    coordinate state near the start (the clamped cable, the turning hub, the xyz cable in the
+    stream)."""
+    from pydriver.analyses.dynamics import start_state
+    m = pydriver.Model.from_deck(INPUTS / f"{stem}.nml")
+    nq, nc = m.nq, m.nc
+    rng = np.random.default_rng(9)
+    q = start_state(m)[0] + 0.05 * rng.standard_normal(nq)
+    lam = rng.standard_normal(nc)
+    y = np.concatenate([q, np.zeros(nq), lam, np.zeros(nc)])
+    swept = _sweep_columns(m, 0.0, y, np.zeros_like(y))
+    k_swept, d_swept = swept[nq:2 * nq, :nq], swept[nq:2 * nq, nq:]
+    assert _close(m.core.static_system(q, lam, jacobian=True)["K"], k_swept)
+    mats = m.core.modal_matrices(q, lam)
+    assert _close(mats["D_r"], mats["basis"].T @ d_swept @ mats["basis"])

@@ -1,8 +1,9 @@
 """The linearised equations of the modal and Campbell analyses against finite differences.
 
 Statics and modal analysis take the tangent stiffness K = d(residual at rest)/dq and the damping
-matrix D = d/dv (v = vdot = 0, multipliers fixed) from the analytic tangent sweeps
-(statics.f90, rest_tangent).  Here they are rebuilt independently from central differences of
+matrix D = d/dv (v = vdot = 0, multipliers fixed) from the analytic derivatives as whole
+matrices (statics.f90, rest_tangent; against the tangent sweeps in
+tests/test_analytic_derivatives.py).  Here they are rebuilt independently from central differences of
 the inverse-dynamics residual M vdot - k - G^T lambda (the probe ``evaluate``), projected on the
 same null-space basis N of G, and compared with the K_r = N^T K N and D_r = N^T D N that the
 eigenvalue problems use.  Decks: the clamped UH-60 cable with gravity and springs (modal deck),
