@@ -311,6 +311,29 @@ class CoreModel:
                           "convergence_failures", "sensitivity_residual_evals"), (int(x) for x in st)))
         return {"q0": qs, "v0": vs, "q": q, "v": v, "basis": basis, "phi": phi, "stats": stats}
 
+    def monodromy_columns(self, settings: dict, t0: float, q0, v0, t, dq, dv, column_atol: float) -> dict:
+        """The monodromy applied to k start perturbations, without the whole matrix
+        (rotorcable_monodromy's monodromy_columns_run: the same tangent integration as
+        :meth:`monodromy`, with k columns instead of 2 nf).
+
+        ``dq``, ``dv`` (nq, k) perturb q and v at the start; their directions in the independent
+        coordinates are x_j = (N^T dq_j, N^T dv_j) (the part off the constraint manifold is
+        dropped), so a direction x given in the basis N of an earlier call from the same start is
+        passed as ``dq = N x[:nf]``, ``dv = N x[nf:]``.  ``column_atol`` (> 0) is the absolute
+        tolerance of the columns' q and v rows (per unit of the perturbation); the state keeps
+        the settings' own.  Returns what :meth:`monodromy` returns, with ``images`` (2 nf, k)
+        = Phi [x_1 ... x_k] in place of ``phi``.
+        """
+        t = _reals(t)
+        nf = self.nq - self.nc
+        q, v, qs, vs, basis, images, st, stat, key, msg = _api.rc_monodromy_columns(
+            self.handle, *_parameter_arrays(settings), float(column_atol), float(t0), _reals(q0), _reals(v0), t, nf,
+            np.asfortranarray(dq, float), np.asfortranarray(dv, float))
+        _raise(self.deck, stat, key, msg)
+        stats = dict(zip(("steps", "residual_evals", "jacobian_evals", "error_test_failures",
+                          "convergence_failures", "sensitivity_residual_evals"), (int(x) for x in st)))
+        return {"q0": qs, "v0": vs, "q": q, "v": v, "basis": basis, "images": images, "stats": stats}
+
     def parameter_sensitivity(self, settings: dict, t0: float, q0, v0, points, sq0, sv0, t,
                               tolerance_scale: float = 1.0) -> dict:
         """An integration from (q0, v0) at t0 with the forward sensitivities of design parameters

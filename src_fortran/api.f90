@@ -22,7 +22,7 @@ module rotorcable_api
   use rotorcable_modal, only: reduced_matrices
   use rotorcable_dae_integrator, only: integrator_settings, settings_from_flat, dae_session, session_start, &
                                        session_advance, consistent_start
-  use rotorcable_monodromy, only: monodromy_run
+  use rotorcable_monodromy, only: monodromy_run, monodromy_columns_run
   use rotorcable_parameter_sensitivity, only: difference_points, parameter_sensitivity_run
   use rotorcable_dae_integrator, only: solver_stats
   use rotorcable_sampling, only: sample_state, joint_loads, shape_of, support_motion
@@ -32,7 +32,7 @@ module rotorcable_api
             rc_model_set_rotor, rc_model_finish, rc_thesis_coordinates, rc_shape, rc_static, &
             rc_static_system, rc_modal_matrices, rc_dynamic_start, rc_dynamic_advance, rc_dynamic_free, rc_sample, &
             rc_monodromy, rc_model_update, rc_model_parameter, rc_constraint_residual, rc_consistent_start, &
-            rc_parameter_sensitivity
+            rc_parameter_sensitivity, rc_monodromy_columns
 
 contains
 
@@ -533,6 +533,52 @@ contains
     end if
     call report(error, stat, key, msg)
   end subroutine rc_monodromy
+
+  !> The monodromy applied to k start perturbations (dq, dv) (rotorcable_monodromy's
+  !> monodromy_columns_run): states at the output times t (the last one ends the period), the
+  !> consistent start, the null-space basis N and the images Phi x_j of the directions
+  !> x_j = (N^T dq_j, N^T dv_j), the columns held to the absolute tolerance column_atol.
+  subroutine rc_monodromy_columns(handle, real_names, nrn, real_sizes, nr, reals, int_names, nin, int_sizes, ni, &
+                                  ints, column_atol, t0, nq, q0, v0, nt, t, nf, k, dq, dv, q, v, &
+                                  q_start, v_start, basis, images, stats, stat, key, msg)
+    integer(c_int), intent(in) :: handle          !< model handle
+    include 'flat_block_arguments.inc'
+    real(c_double), intent(in) :: column_atol     !< absolute tolerance of the columns (> 0)
+    real(c_double), intent(in) :: t0              !< start time [s]
+    integer(c_int), intent(in) :: nq, nt, nf, k   !< coordinates, output times, nq - nc, columns
+    real(c_double), intent(in) :: q0(nq), v0(nq)  !< start state
+    real(c_double), intent(in) :: t(nt)           !< increasing output times > t0 [s]
+    real(c_double), intent(in) :: dq(nq, k), dv(nq, k)  !< start perturbations of q and v
+    real(c_double), intent(out) :: q(nq, nt), v(nq, nt)  !< states at t
+    real(c_double), intent(out) :: q_start(nq), v_start(nq)  !< consistent start
+    real(c_double), intent(out) :: basis(nq, nf)  !< N
+    real(c_double), intent(out) :: images(2*nf, k)  !< Phi x_j in x = (a, b)
+    integer(c_int), intent(out) :: stats(6)       !< as rc_monodromy
+    integer(c_int), intent(out) :: stat           !< status
+    character(len=64), intent(out) :: key         !< input at fault
+    character(len=1024), intent(out) :: msg       !< why
+    type(model_type), pointer :: model
+    type(error_type) :: error
+    type(solver_stats) :: st
+    type(integrator_settings) :: settings
+    integer :: n_sens
+    q = 0.0_dp; v = 0.0_dp; basis = 0.0_dp; images = 0.0_dp; stats = 0
+    q_start = q0; v_start = v0
+    model => model_of(handle, error)
+    if (error%code == 0) then
+      if (nf /= model%nq - model%nc .or. nq /= model%nq .or. k < 1) &
+        call fatal_error(error, 'rc_monodromy_columns: wrong sizes')
+      if (.not. column_atol > 0.0_dp) call fatal_error(error, 'rc_monodromy_columns: column_atol must be > 0')
+    end if
+    if (error%code == 0) call settings_from_flat(real_names, real_sizes, reals, int_names, int_sizes, ints, settings, error)
+    if (error%code == 0) then
+      call monodromy_columns_run(model, settings, column_atol, t0, q_start, v_start, t, dq, dv, q, v, basis, images, &
+                                 st, n_sens, error)
+      stats = [st%steps, st%residual_evals, st%jacobian_evals, st%error_test_failures, st%convergence_failures, &
+               n_sens]
+    end if
+    call report(error, stat, key, msg)
+  end subroutine rc_monodromy_columns
 
   !> The constraint residual g(q, t) of the supports (clamp B: position, then rotation rows;
   !> src_fortran/supports/clamp.f90).  For clamp B's pose at any time (pydriver/analyses/clamp_reach.py).

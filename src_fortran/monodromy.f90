@@ -49,7 +49,7 @@ module rotorcable_monodromy
   use rotorcable_dae_integrator, only: integrator_settings, solver_stats, consistent_start
   implicit none
   private
-  public :: monodromy_run, initial_sensitivities
+  public :: monodromy_run, monodromy_columns_run, initial_sensitivities
 
   !> Step of the central difference of the acceleration-level solve per unit of the direction.
   !> s_v' and s_lambda only seed the predictor of IDA's first step (BDF's corrector determines
@@ -104,6 +104,55 @@ contains
     type(solver_stats), intent(out) :: stats          !< solver statistics
     integer, intent(out) :: sens_residual_evals       !< sensitivity residual evaluations (all columns at once)
     type(error_type), intent(inout) :: error          !< status
+    call tangent_run(model, settings, settings%atol, t0, q0, v0, t_out, q_out, v_out, basis, phi, stats, &
+                     sens_residual_evals, error)
+  end subroutine monodromy_run
+
+  !> The monodromy applied to k start perturbations: one period from (q0, v0) at t0 with the
+  !> forward sensitivities of the start directions x_j = (N^T dq_j, N^T dv_j), returning
+  !> Phi [x_1 ... x_k] (a subspace of the monodromy, for the least damped Floquet modes without
+  !> the 2 nf columns of the whole matrix; pydriver/analyses/floquet_subspace.py).  The
+  !> perturbations are given in q so that a caller needs no basis before the first call; the
+  !> same start gives the same N, so a later call may pass N x for a direction x.  The
+  !> sensitivities' absolute tolerance is column_atol (per unit of the perturbation), the
+  !> state's stays settings%atol: a multiplier far below the state's tolerance is resolved only
+  !> when the columns are held to a tolerance below it.
+  subroutine monodromy_columns_run(model, settings, column_atol, t0, q0, v0, t_out, dq, dv, q_out, v_out, basis, &
+                                   images, stats, sens_residual_evals, error)
+    type(model_type), intent(inout), target :: model  !< model
+    type(integrator_settings), intent(in) :: settings !< tolerances of the state (rtol also of the columns)
+    real(dp), intent(in) :: column_atol               !< absolute tolerance of the columns' q and v rows
+    real(dp), intent(in) :: t0                        !< start time [s]
+    real(dp), intent(inout) :: q0(:), v0(:)           !< start state, made consistent in place
+    real(dp), intent(in) :: t_out(:)                  !< increasing output times > t0; the last ends the period
+    real(dp), intent(in) :: dq(:, :), dv(:, :)        !< (nq, k) start perturbations of q and v
+    real(dp), intent(out) :: q_out(:, :), v_out(:, :) !< (nq, size(t_out)) states
+    real(dp), intent(out) :: basis(:, :)              !< (nq, nf) N at the start
+    real(dp), intent(out) :: images(:, :)             !< (2 nf, k) Phi x_j in x = (a, b)
+    type(solver_stats), intent(out) :: stats          !< solver statistics
+    integer, intent(out) :: sens_residual_evals       !< sensitivity residual evaluations (all columns at once)
+    type(error_type), intent(inout) :: error          !< status
+    call tangent_run(model, settings, column_atol, t0, q0, v0, t_out, q_out, v_out, basis, images, stats, &
+                     sens_residual_evals, error, dq, dv)
+  end subroutine monodromy_columns_run
+
+  !> One period of the state with ns = size(images, 2) tangent columns: the unit directions of
+  !> x (the monodromy) or, with dq and dv, the given start perturbations projected onto x.
+  subroutine tangent_run(model, settings, column_atol, t0, q0, v0, t_out, q_out, v_out, basis, images, stats, &
+                         sens_residual_evals, error, dq, dv)
+    type(model_type), intent(inout), target :: model
+    type(integrator_settings), intent(in) :: settings
+    real(dp), intent(in) :: column_atol
+    real(dp), intent(in) :: t0
+    real(dp), intent(inout) :: q0(:), v0(:)
+    real(dp), intent(in) :: t_out(:)
+    real(dp), intent(out) :: q_out(:, :), v_out(:, :)
+    real(dp), intent(out) :: basis(:, :)
+    real(dp), intent(out) :: images(:, :)
+    type(solver_stats), intent(out) :: stats
+    integer, intent(out) :: sens_residual_evals
+    type(error_type), intent(inout) :: error
+    real(dp), intent(in), optional :: dq(:, :), dv(:, :)
     type(tangent_data), pointer :: td
     type(sun_linear_solver), pointer :: ls
     type(sun_linear_solver_ops), pointer :: ops
@@ -117,8 +166,8 @@ contains
     integer :: nq, nc, nf, n, ns, k, big, j
     character(len=96) :: buf
 
-    nq = model%nq; nc = model%nc; nf = nq - nc; n = 2*nq + 2*nc; ns = 2*nf; big = n*(ns + 1)
-    q_out = 0.0_dp; v_out = 0.0_dp; basis = 0.0_dp; phi = 0.0_dp; sens_residual_evals = 0
+    nq = model%nq; nc = model%nc; nf = nq - nc; n = 2*nq + 2*nc; ns = size(images, 2); big = n*(ns + 1)
+    q_out = 0.0_dp; v_out = 0.0_dp; basis = 0.0_dp; images = 0.0_dp; sens_residual_evals = 0
     stats = solver_stats()
     ctx = c_null_ptr; mem = c_null_ptr; yy = c_null_ptr; yp = c_null_ptr; id = c_null_ptr; atol = c_null_ptr
     lsol = c_null_ptr
@@ -134,7 +183,7 @@ contains
       end if
     end if
     allocate (ys0(n, ns), yps0(n, ns))
-    call initial_sensitivities(model, t0, q0, v0, basis, ys0, yps0, error)
+    call initial_sensitivities(model, t0, q0, v0, basis, ys0, yps0, error, dq, dv)
     if (error%code /= 0) return
 
     allocate (td)
@@ -164,12 +213,14 @@ contains
         y(k*n + 1:(k + 1)*n) = ys0(:, k); yd(k*n + 1:(k + 1)*n) = yps0(:, k)
       end do
       ! Every block as the state's: q and v differential with atol (the sensitivities are per
-      ! unit of x, rad and rad/s), lambda and mu algebraic with the loose atol_multiplier and
-      ! out of the error test (IDASetSuppressAlg; as in dae_integrator.f90's session_start).
+      ! unit of x, rad and rad/s; the columns' own column_atol), lambda and mu algebraic with the
+      ! loose atol_multiplier and out of the error test (IDASetSuppressAlg; as in
+      ! dae_integrator.f90's session_start).
       do k = 0, ns
         j = k*n
         idv(j + 1:j + 2*nq) = 1.0_dp; idv(j + 2*nq + 1:j + n) = 0.0_dp
-        av(j + 1:j + 2*nq) = settings%atol; av(j + 2*nq + 1:j + n) = settings%atol_multiplier
+        av(j + 1:j + 2*nq) = merge(settings%atol, column_atol, k == 0)
+        av(j + 2*nq + 1:j + n) = settings%atol_multiplier
       end do
       mem = IDACreate(ctx)
       if (.not. c_associated(mem)) call fatal_error(error, 'SUNDIALS IDACreate returned NULL')
@@ -221,8 +272,8 @@ contains
     end if
     if (error%code == 0) then
       do k = 1, ns
-        phi(1:nf, k) = matmul(y(k*n + 1:k*n + nq), basis)
-        phi(nf + 1:ns, k) = matmul(y(k*n + nq + 1:k*n + 2*nq), basis)
+        images(1:nf, k) = matmul(y(k*n + 1:k*n + nq), basis)
+        images(nf + 1:2*nf, k) = matmul(y(k*n + nq + 1:k*n + 2*nq), basis)
       end do
     end if
     if (c_associated(mem)) then
@@ -247,7 +298,7 @@ contains
     if (c_associated(atol)) call N_VDestroy(atol)
     if (c_associated(ctx)) flag = SUNContext_Free(ctx)
     deallocate (td)
-  end subroutine monodromy_run
+  end subroutine tangent_run
 
   !> IDAResFn of the tangent system Y = (y, s_1 ... s_ns): the GGL residual F(t, y, y') and,
   !> for every column, F_y s_k + F_y' s_k' by the analytic tangent at (t, y, y').  Returns 0,
@@ -377,15 +428,17 @@ contains
   end subroutine tangent_error_handler
 
   !> Consistent initial sensitivities of the GGL unknowns for the 2 nf unit directions of
-  !> x = (a, b) at a consistent start (q, v): column k <= nf moves a_k, column nf + k moves b_k.
-  subroutine initial_sensitivities(model, t, q, v, basis, ys, yps, error)
+  !> x = (a, b) at a consistent start (q, v): column k <= nf moves a_k, column nf + k moves b_k;
+  !> or, with dq and dv, for the directions x_k = (N^T dq_k, N^T dv_k) of given perturbations.
+  subroutine initial_sensitivities(model, t, q, v, basis, ys, yps, error, dq, dv)
     type(model_type), intent(inout) :: model  !< model
     real(dp), intent(in) :: t                 !< time [s]
     real(dp), intent(in) :: q(:), v(:)        !< consistent state
     real(dp), intent(out) :: basis(:, :)      !< (nq, nf) orthonormal N with G N = 0
-    real(dp), intent(out) :: ys(:, :)         !< (n, 2 nf) s = dy/dx
-    real(dp), intent(out) :: yps(:, :)        !< (n, 2 nf) s' = dy'/dx
+    real(dp), intent(out) :: ys(:, :)         !< (n, 2 nf, or k) s = dy/dx
+    real(dp), intent(out) :: yps(:, :)        !< (n, 2 nf, or k) s' = dy'/dx
     type(error_type), intent(inout) :: error  !< status
+    real(dp), intent(in), optional :: dq(:, :), dv(:, :)  !< (nq, k) perturbations (absent: unit directions)
     real(dp) :: g_jac(model%nc, model%nq), y(size(ys, 1)), yd(size(ys, 1)), dy(size(ys, 1)), dyd(size(ys, 1))
     real(dp) :: dr(size(ys, 1)), vdot(model%nq), lambda(model%nc), corr(model%nq)
     real(dp) :: vd_p(model%nq), vd_m(model%nq), la_p(model%nc), la_m(model%nc), sq(model%nq), sv(model%nq), h
@@ -408,14 +461,19 @@ contains
     y(1:nq) = q; y(nq + 1:2*nq) = v; y(2*nq + 1:2*nq + nc) = lambda
     yd(1:nq) = v; yd(nq + 1:2*nq) = vdot
     dyd = 0.0_dp
-    do k = 1, 2*nf
+    do k = 1, size(ys, 2)
       sq = 0.0_dp; sv = 0.0_dp
-      if (k <= nf) then
+      if (present(dq)) then
+        ! The perturbation's part in the tangent space (G N a = 0); its normal part would move
+        ! the start off the constraints, which no consistent start can.
+        sq = matmul(basis, matmul(dq(:, k), basis))
+        sv = matmul(basis, matmul(dv(:, k), basis))
+      else if (k <= nf) then
         sq = basis(:, k)
       else
         sv = basis(:, k - nf)
       end if
-      if (nc > 0 .and. k <= nf) then
+      if (nc > 0 .and. (k <= nf .or. present(dq))) then
         ! H s_q: the velocity rows of the residual's tangent at fixed v (state set just before).
         call ggl_residual_dense(model, t, y, yd, dr)
         dy = 0.0_dp; dy(1:nq) = sq
