@@ -38,6 +38,9 @@ _QUANTITY_WORDS = (
     (re.compile(r"fatigue life \[h\], shortest"), "shortest fatigue life [h]"),
     (re.compile(r"spectrum life \[h\]"), "life over the usage spectrum, at the worst point [h]"),
     (re.compile(r"decay f_damped \[Hz\]"), "damped frequency of the decay test [Hz]"),
+    (re.compile(r"Floquet zeta, least damped \[-\]"), "damping ratio of the least damped Floquet mode [-]"),
+    (re.compile(r"Floquet f, least damped \[Hz\]"), "frequency of the least damped Floquet mode [Hz]"),
+    (re.compile(r"Floquet \|rho\|, least damped \[-\]"), "|multiplier| of the least damped Floquet mode [-]"),
     (re.compile(r"F_([AB]) ([xyz]) \[N\]"), r"force of support \1 on the cable, \2 [N]"),
     (re.compile(r"M_([AB]) ([xyz]) \[Nm\]"), r"moment of support \1 on the cable, \2 [Nm]"),
     (re.compile(r"tip ([xyz]) \[m\]"), r"free tip, \1 [m]"),
@@ -120,6 +123,12 @@ def quantities_of(summary: dict) -> dict[str, tuple[Quantity, float]]:
         for c in fat["clamp_loads"]:
             unit = "N" if c["quantity"].startswith("F") else "Nm"
             put(Quantity(f"DEL {c['quantity']}", unit), c["del_amplitude"])
+    least = (summary.get("floquet") or {}).get("least_damped")
+    if least:
+        # The Floquet verdict's mode (pydriver.analyses.floquet_subspace at every level).
+        put(Quantity("Floquet zeta, least damped [-]", "-", headline=True), least["damping_ratio"])
+        put(Quantity("Floquet f, least damped [Hz]", "Hz"), least["frequency_hz"])
+        put(Quantity("Floquet |rho|, least damped [-]", "-"), least["multiplier_abs"])
     decay = summary.get("decay") or {}
     if "f_damped_hz" in decay:
         put(Quantity("decay f_damped [Hz]", "Hz", headline=True), decay["f_damped_hz"])

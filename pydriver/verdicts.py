@@ -86,8 +86,14 @@ def _floquet(s: dict) -> list[Verdict]:
         return []
     where = f", n = {fl['n_bodies']}" if "n_bodies" in fl else ""
     ld = fl["least_damped"]
-    value = (f"largest |multiplier| {fl['max_multiplier_abs']:.4g}; least damped mode {_num(ld['frequency_hz'], 4)} Hz, "
-             f"damping ratio {ld['damping_ratio']:.3g}{where}")
+    refined = (s.get("headline") or {}).get("Floquet zeta, least damped [-]")
+    if refined is not None and "error_estimate" in refined:
+        # Refined (floquet_subspace.py at every level): the converged ratio with its error bar.
+        value = (f"largest |multiplier| {fl['max_multiplier_abs']:.4g}{where}; least damped mode "
+                 f"{_num(ld['frequency_hz'], 4)} Hz, damping ratio {headline_text(refined)}")
+    else:
+        value = (f"largest |multiplier| {fl['max_multiplier_abs']:.4g}; least damped mode "
+                 f"{_num(ld['frequency_hz'], 4)} Hz, damping ratio {ld['damping_ratio']:.3g}{where}")
     return [Verdict("stability of the periodic motion (Floquet)", value, "stable" if fl["stable"] else "UNSTABLE",
                     not fl["stable"])]
 

@@ -63,14 +63,22 @@ def floquet_modes(phi: np.ndarray, period: float, hover_hz=(), hover_zeta=None,
     """
     phi = np.asarray(phi, float)
     rho = np.linalg.eigvals(phi)
+    floor = 10.0 * resolution * max(1.0, float(np.linalg.norm(phi, 2))) if phi.size else 0.0
+    return modes_of_multipliers(rho, period, hover_hz, hover_zeta, np.abs(rho) >= floor)
+
+
+def modes_of_multipliers(rho, period: float, hover_hz=(), hover_zeta=None, resolved=None) -> dict:
+    """:func:`floquet_modes` of given multipliers (the whole monodromy's eigenvalues, or the
+    Ritz values of a subspace, :mod:`pydriver.analyses.floquet_subspace`); ``resolved`` (bool per
+    multiplier, default all) says which are above round-off and are matched to a hover mode."""
+    rho = np.asarray(rho, complex)
+    resolved = np.ones(rho.size, bool) if resolved is None else np.asarray(resolved, bool)
     keep = rho.imag >= -1e-14 * np.maximum(1.0, np.abs(rho))
     # A conjugate pair is one mode: drop the lower member (eig returns both).
-    rho = rho[keep]
+    rho, resolved = rho[keep], resolved[keep]
     size = np.maximum(np.abs(rho), np.finfo(float).tiny)
     eta = (np.log(size) + 1j * np.angle(rho)) / period
     f0 = np.abs(eta.imag) / (2.0 * np.pi)
-    floor = 10.0 * resolution * max(1.0, float(np.linalg.norm(phi, 2))) if phi.size else 0.0
-    resolved = np.abs(rho) >= floor
     s_hover = hover_eigenvalues(hover_hz, hover_zeta)
     freq, matched = f0.copy(), np.full(len(rho), np.nan)
     if s_hover.size and np.any(resolved):

@@ -106,4 +106,6 @@ def add_hover_modes(model, result, hover=None) -> None:
                           modes_about="hover equilibrium at the flight's rotor speed and n (blade at its mean "
                                       "angles, no stream)")
     result.extra["hover_modes"] = hover.extra["modes"]
+    # Their shapes in q: the start directions of the Floquet subspace (floquet_subspace.py).
+    result.extra["hover_mode_shapes_q"] = hover.extra["mode_shapes_q"]
     result.extra["hover_table"] = hover.table

@@ -150,16 +150,23 @@ def run_refined(model, run_dir, analyse):
     diagram = entry.refinement == "diagram"
     coarse, walls, jackets = [], [], []
     floquet = model.deck["solver.floquet"] if entry.periodic else False
-    floquet_base = None
     for k, m in enumerate(models):
-        if floquet and k > 0:
-            # Floquet at the deck's own n only: its sensitivities grow as n^2 per step.
+        if floquet:
+            # Not the whole monodromy (its 2 nf columns cost as n^2 per step: 113 s at n = 44
+            # for the main job): every level's Floquet verdict comes from a subspace of it
+            # (floquet_subspace.py) and is extrapolated like every number.  Without it a
+            # flight's design sensitivities start from the Krylov periodic start at every level.
             m = Model(m.deck.with_values({"solver.floquet": False}))
         name = f"refinement level {k + 1} of {levels} (n = {m.n_bodies})"
         t_level = time.perf_counter()
         with stage(name):
             try:
                 result = analyse(m, run_dir if k == levels - 1 else None)
+                if floquet:
+                    from pydriver.analyses.floquet_subspace import add_floquet_subspace
+                    report(f"refinement: the least damped Floquet modes at n = {m.n_bodies} (a subspace of the "
+                           "monodromy)")
+                    add_floquet_subspace(m, result)
             except RunError as exc:
                 # Say which level failed (issue 22: a 40-body --refine flight failed after 49 s
                 # without saying at which n).
@@ -170,8 +177,6 @@ def run_refined(model, run_dir, analyse):
         # Every jacket point of every level (small: n x points values each): a usage spectrum adds
         # them over its regimes level by level (pydriver/analyses/spectrum_damage.py).
         jackets.append(result.extra.get("fatigue_points"))
-        if floquet and k == 0:
-            floquet_base = (result.summary.get("floquet"), result.extra.get("tables", {}).get("floquet.csv"))
         if k < levels - 1:
             coarse.append(result if diagram else result.summary)
     ns = [m.n_bodies for m in models]
@@ -185,9 +190,11 @@ def run_refined(model, run_dir, analyse):
     result.summary["refinement"] = refinement
     if all(j is not None for j in jackets):
         result.extra["fatigue_points_levels"] = jackets
-    if floquet_base is not None and floquet_base[0] is not None:
-        result.summary["floquet"] = dict(floquet_base[0], n_bodies=models[0].n_bodies)
-        result.extra.setdefault("tables", {})["floquet.csv"] = floquet_base[1]
+    if floquet:
+        # The Floquet verdict at every level; its least damped mode is in summary['refinement'].
+        result.summary["floquet"]["levels"] = [
+            {key: f[key] for key in ("n_bodies", "stable", "max_multiplier_abs", "least_damped")}
+            for f in [c["floquet"] for c in coarse] + [result.summary["floquet"]]]
     # The job's time, all levels (the finest level's alone was printed as the job's).
     result.summary["wall_time_s"] = time.perf_counter() - t0
     result.summary["wall_time_levels_s"] = walls
