@@ -503,7 +503,7 @@ def _keys() -> list[Key]:
                 "shooting (Newton on x(T) - x(0) with the monodromy from IDAS sensitivities)"))
     add(Key("solver", "floquet", "bool", default=False,
             doc="flight: Floquet stability of the periodic motion from its monodromy matrix (floquet.csv); "
-                "refined runs compute it at the deck's own n"))
+                "refined runs take the least damped modes at every n from a subspace of it and extrapolate them"))
     add(Key("solver", "periodic_tol", "real", unit="m", default=1.0e-6, low=1.0e-14, high=1.0,
             doc="flight: two successive revolutions differ by less than this (max CM distance)"))
     add(Key("solver", "max_revolutions", "int", default=60, low=2, high=10_000, doc="flight: revolution budget"))

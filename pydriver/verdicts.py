@@ -145,7 +145,8 @@ def verdicts(summary: dict) -> list[Verdict]:
     rows += _limits(s) + _resonance(s) + _floquet(s) + _equilibrium(s) + _integration(s)
     # The reactions follow in a table of their own.
     reactions = {name for name in (s.get("headline") or {}) if name.startswith(("F_", "M_"))}
-    rows += _headlines(s, judged | reactions | {"fatigue life [h], shortest"})
+    # The Floquet damping ratio is in the Floquet row.
+    rows += _headlines(s, judged | reactions | {"fatigue life [h], shortest", "Floquet zeta, least damped [-]"})
     return rows
 
 
