@@ -193,7 +193,7 @@ def run_refined(model, run_dir, analyse):
     if floquet:
         # The Floquet verdict at every level; its least damped mode is in summary['refinement'].
         result.summary["floquet"]["levels"] = [
-            {key: f[key] for key in ("n_bodies", "stable", "max_multiplier_abs", "least_damped")}
+            {key: f[key] for key in ("n_bodies", "stable", "max_multiplier_abs", "least_damped", "wall_time_s")}
             for f in [c["floquet"] for c in coarse] + [result.summary["floquet"]]]
     # The job's time, all levels (the finest level's alone was printed as the job's).
     result.summary["wall_time_s"] = time.perf_counter() - t0
