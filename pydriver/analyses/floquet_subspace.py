@@ -143,17 +143,34 @@ def subspace_multipliers(apply, x0: np.ndarray, images0: np.ndarray, floor,
             break
         v, w = np.hstack([v, new]), np.hstack([w, apply(new)])
         blocks += 1
-    return {"multipliers": rho, "floor": level, "residuals": residual, "vectors": ritz, "blocks": blocks, "columns": v.shape[1]}
+    return {"multipliers": rho, "floor": level, "residuals": residual, "vectors": ritz, "blocks": blocks,
+            "columns": v.shape[1]}
 
 
 def floquet_subspace(model, q0, v0, period: float, hover_summary: dict, hover_shapes: np.ndarray) -> dict:
     """The least damped Floquet multipliers of the periodic motion through (q0, v0) at t = 0.
 
-    Returns :func:`subspace_multipliers`' dict with ``floor`` (the multipliers below it are
-    round-off: FLOOR_SHARE rtol |rho|_max, and no less than ten times the columns' absolute
-    tolerance), ``resolved`` (above the floor with a converged Ritz pair), ``start_modes`` (hover
-    modes in the start block), ``column_atol`` and the solver statistics of every block
-    (``stats``).
+    Parameters
+    ----------
+    model : pydriver.model.Model
+        The flight's model (its solver settings: rtol sets the floor and the columns' atol).
+    q0, v0 : (nq,) arrays
+        A start on the periodic orbit at t = 0.
+    period : float
+        The period T [s].
+    hover_summary : dict
+        ``frequencies_hz``, ``damped_frequencies_hz`` and ``damping_ratios`` of the hover modes.
+    hover_shapes : (nq, nf) array
+        Their undamped shapes in q (the modal analysis's ``mode_shapes_q``).
+
+    Returns
+    -------
+    dict
+        :func:`subspace_multipliers`' dict with ``floor`` (the multipliers below it are
+        round-off: FLOOR_SHARE rtol |rho|_max, and no less than ten times the columns' absolute
+        tolerance), ``resolved`` (above the floor with a converged Ritz pair), ``start_modes``
+        (hover modes in the start block), ``column_atol`` and the solver statistics of every
+        block (``stats``).
     """
     settings = model.solver_settings()
     rtol = float(settings["rtol"])
@@ -186,8 +203,8 @@ def add_floquet_subspace(model, result) -> None:
     """Put the Floquet modes of a flight result's periodic motion, from :func:`floquet_subspace`
     at its start ``result.extra['orbit']``, into its summary (``summary['floquet']``, with the
     number of bodies, the method and its largest relative Ritz residual) and ``floquet.csv``
-    (with a column ``n_bodies``); its integration steps and wall time are in the summary.  Needs the hover modes of the result
-    (:func:`pydriver.analyses.hover_modes.add_hover_modes`)."""
+    (with a column ``n_bodies``); its integration steps and wall time are in the summary.  Needs
+    the hover modes of the result (:func:`pydriver.analyses.hover_modes.add_hover_modes`)."""
     from pydriver.analyses.floquet import floquet_summary, modes_of_multipliers
     orbit, s = result.extra["orbit"], result.summary
     period = float(orbit["period_s"])
@@ -212,8 +229,8 @@ def add_floquet_subspace(model, result) -> None:
     result.extra.setdefault("tables", {})["floquet.csv"] = cols
     if not summary["stable"]:
         s.setdefault("warnings", []).append(
-            f"the periodic motion is unstable: a Floquet multiplier has |rho| = {summary['max_multiplier_abs']:.6g} > 1 "
-            f"at n = {model.n_bodies} (floquet.csv)")
+            f"the periodic motion is unstable: a Floquet multiplier has |rho| = "
+            f"{summary['max_multiplier_abs']:.6g} > 1 at n = {model.n_bodies} (floquet.csv)")
     if summary["unresolved_above_floor"]:
         s.setdefault("warnings", []).append(
             f"Floquet: {summary['unresolved_above_floor']} multiplier(s) above round-off ({out['floor']:.2g}) kept a "
