@@ -108,7 +108,7 @@ COLUMNS = [
     Column(("floquet.csv",), "frequency_hz", "Hz", "frequency, the multiple of 1/rev resolved by the hover mode"),
     Column(("floquet.csv",), "hover_frequency_hz", "Hz", "the hover mode that resolved it (blank: none)"),
     Column(("floquet.csv",), "damping_ratio", "-", "-Re(eta)/|eta|"),
-    Column(("floquet.csv",), "resolved", "-", "1: |rho| above round-off (the whole monodromy's 10 rtol ||Phi||; a refined run's subspace: 0.1 rtol |rho|max and a converged Ritz pair); 0: not matched to a hover mode"),
+    Column(("floquet.csv",), "resolved", "-", "1: |rho| above round-off (0.1 rtol |rho|max; a refined run's subspace: and a converged Ritz pair); 0: not matched to a hover mode"),
     Column(("floquet.csv",), "n_bodies", "-", "a refined run: the level's number of bodies (the finest; every level's verdict in summary.json floquet.levels)"),
     # -- resonance margins -----------------------------------------------------------------------------
     Column(("resonance.csv",), "mode", "-", "mode number"),

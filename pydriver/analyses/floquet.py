@@ -11,7 +11,8 @@ modulo 1/rev.  It is resolved by the nearest hover mode, matched on the whole co
 ``damping_ratios`` of the flight summary, :mod:`pydriver.analyses.hover_modes`): matching on the
 frequency alone let round-off multipliers (|rho| ~ 1e-17, their phase meaningless) take hover
 modes first, and a well-resolved mode then got another mode's frequency.  Multipliers below
-the resolution of Phi (``resolution`` ||Phi||, the integration's rtol) are not matched.  The
+the resolution of Phi (a tenth of the integration's rtol times the largest |rho|) are not
+matched.  The
 damping ratio follows from the resolved exponent, zeta = -Re(eta) / |eta| (Peters & Hohenemser
 1971; Friedmann & Hammond 1983; docs/model.md "Floquet stability").
 """
@@ -19,6 +20,8 @@ damping ratio follows from the resolved exponent, zeta = -Re(eta) / |eta| (Peter
 from __future__ import annotations
 
 import numpy as np
+
+from pydriver.analyses.floquet_subspace import FLOOR_SHARE
 
 
 def _candidates(f0: float, period: float, top: float) -> np.ndarray:
@@ -52,8 +55,8 @@ def floquet_modes(phi: np.ndarray, period: float, hover_hz=(), hover_zeta=None,
         Damped frequencies [Hz] and damping ratios of the modes that resolve the 1/rev
         ambiguity (frequency 0 = overdamped, not used; no ratios: matched as undamped).
     resolution : float
-        Relative accuracy of Phi (the integration's rtol): multipliers below 10 resolution
-        ||Phi||_2 are round-off and are not matched to a hover mode.
+        Relative accuracy of Phi (the integration's rtol): multipliers below
+        ``FLOOR_SHARE`` resolution max|rho| are round-off and are not matched to a hover mode.
 
     Returns
     -------
@@ -63,7 +66,12 @@ def floquet_modes(phi: np.ndarray, period: float, hover_hz=(), hover_zeta=None,
     """
     phi = np.asarray(phi, float)
     rho = np.linalg.eigvals(phi)
-    floor = 10.0 * resolution * max(1.0, float(np.linalg.norm(phi, 2))) if phi.size else 0.0
+    # The integration's errors reach a multiplier as rtol times the least damped mode's share of
+    # a column, not of ||Phi||_2 (which x's mixed units, rad and rad/s, inflate): the old floor
+    # 10 rtol ||Phi||_2 = 1.2e-4 of the main job at n = 11 discarded its 40 and 49 Hz modes
+    # (1.5e-5, 1.7e-7), which agree with a subspace at tight column tolerances to 4.5e-4 and
+    # 1.2e-3 (the other eigenvalues of Phi are below 1.5e-16); floquet_subspace.FLOOR_SHARE.
+    floor = FLOOR_SHARE * resolution * float(np.max(np.abs(rho), initial=0.0))
     return modes_of_multipliers(rho, period, hover_hz, hover_zeta, np.abs(rho) >= floor)
 
 
