@@ -29,7 +29,7 @@ from conftest import INPUTS
 
 import pydriver
 from pydriver.analyses.dynamics import dynamic_analysis
-from pydriver.analyses.flight_sensitivities import _Outputs, _signal
+from pydriver.analyses.history_outputs import HistoryOutputs, history_signal
 from pydriver.design import parameters
 from pydriver.model import Model
 
@@ -54,7 +54,7 @@ def family(name: str) -> str:
 
 
 def frozen_outputs(model, base_ts, other, other_ts) -> np.ndarray:
-    return _Outputs(model, base_ts, periodic=False).frozen(lambda spec: _signal(other, other_ts, spec))
+    return HistoryOutputs(model, base_ts, periodic=False).frozen(lambda spec: history_signal(other, other_ts, spec))
 
 
 @pytest.mark.parametrize("case", list(CASES))
@@ -64,7 +64,7 @@ def test_dynamic_sensitivities_match_whole_run_differences(case):
     result = pydriver.run_deck(model.with_changes({"design.parameters": names}))
     d = result.summary["sensitivities"]["d_output_d_parameter"]
     base = dynamic_analysis(model).timeseries
-    outs = _Outputs(model, base, periodic=False)
+    outs = HistoryOutputs(model, base, periodic=False)
     noise = {family(n) for n, v in zip(outs.names, outs.values)
              if max(abs(x) for m, x in zip(outs.names, outs.values) if family(m) == family(n)) < 1e-9}
     if case == "decay":

@@ -45,7 +45,9 @@ from pydriver.analyses.flight_sensitivities import (
     flight_outputs,
     flight_outputs_frozen,
     flight_selections,
+    worst_points_of,
 )
+from pydriver.analyses.history_outputs import HistoryOutputs, history_signal
 from pydriver.design import parameters
 from pydriver.model import Model
 
@@ -284,14 +286,13 @@ def test_outputs_from_the_runs_worst_points_and_used_samples(flight_case):
     # the same names, values and rules (exactly); (2) the outputs' derivatives difference the
     # sample function only at the samples the rules read (samples_used): every sample, extreme
     # and cycle reversal a rule reads is among them, and no other.
-    from pydriver.analyses.flight_sensitivities import _Outputs, _signal, worst_points_of
 
     model, result = flight_case
     ts = result.timeseries
     table = result.extra["tables"]["fatigue.csv"]
     points = worst_points_of(model, table)
     assert len(points) == model.n_bodies and len(set(points)) > 1   # not all at one angle
-    searched, handed = _Outputs(model, ts), _Outputs(model, ts, worst_points=points)
+    searched, handed = HistoryOutputs(model, ts), HistoryOutputs(model, ts, worst_points=points)
     assert handed.names == searched.names and handed.values == searched.values
     used = set(searched.samples_used().tolist())
     read = set()
@@ -300,6 +301,6 @@ def test_outputs_from_the_runs_worst_points_and_used_samples(flight_case):
                     else list(rule[2].start) + list(rule[2].end))
     assert used == read and len(used) < len(ts["t"])
     # A derivative signal that is NaN outside the used samples still gives finite outputs.
-    d = searched.derivatives(lambda spec: _signal(model, ts, spec),
+    d = searched.derivatives(lambda spec: history_signal(model, ts, spec),
                              lambda spec: np.where(np.isin(np.arange(len(ts["t"])), sorted(used)), 1.0, np.nan))
     assert np.all(np.isfinite(d))

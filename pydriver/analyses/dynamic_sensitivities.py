@@ -3,8 +3,8 @@ issue 24; docs/model.md "Design sensitivities of a dynamic run").
 
 The run's time series is a smooth function of the parameters; its outputs' derivatives come
 from the forward sensitivities s = dy/dp through the DAE, as in a flight
-(:mod:`pydriver.analyses.flight_sensitivities`, whose outputs and rules are reused), with two
-differences:
+(:mod:`pydriver.analyses.flight_sensitivities`; the outputs and their rules are
+:mod:`pydriver.analyses.history_outputs`), with two differences:
 
 1. **The start.**  A run from the deck's shape starts at the deck's shape projected onto the
    constraint manifold (``Model.q0``), which moves with a parameter that moves the constraint:
@@ -12,8 +12,9 @@ differences:
    parameter that leaves the constraint alone).  A least-norm correction would be another
    first-order start: the projection's steps are not least-norm (energy descent).  A run from rest in the equilibrium
    (``&case start = 'equilibrium'``) starts at q*(p): s_q(0) = dq*/dp by the implicit function
-   theorem at the equilibrium (:func:`pydriver.analyses.sensitivities._tangents`, the static
-   runs' formula), s_v(0) = 0.
+   theorem at the equilibrium
+   (:func:`pydriver.analyses.sensitivity_common.equilibrium_tangents`, the static runs'
+   formula), s_v(0) = 0.
 2. **Pulse edges.**  The core steps onto every switch time of the loads and restarts the
    sensitivities there with the state (IDASensReInit; s_q, s_v continuous, s_v' and s_lambda
    made consistent with the loads after the switch): the switch times do not depend on the
@@ -31,8 +32,12 @@ import time
 
 import numpy as np
 
-from pydriver.analyses.flight_sensitivities import _Outputs, _points, output_derivatives
-from pydriver.analyses.sensitivities import _pack, _tangents
+from pydriver.analyses.history_outputs import HistoryOutputs, output_derivatives
+from pydriver.analyses.sensitivity_common import (
+    core_points,
+    equilibrium_tangents,
+    sensitivity_table,
+)
 from pydriver.analyses.statics import equilibrium, unforced
 from pydriver.errors import RunError
 
@@ -46,7 +51,7 @@ def start_sensitivities(model, plans) -> tuple[np.ndarray, np.ndarray, np.ndarra
         with contextlib.ExitStack() as scope:       # the steady loads: every pulse off in scope
             for m in [model] + [m for pl in plans for _, _, m in pl.points if m is not None]:
                 scope.enter_context(unforced(m))
-            sq0 = np.column_stack([dx[:nq] for dx in _tangents(model, plans, q, lam)])
+            sq0 = np.column_stack([dx[:nq] for dx in equilibrium_tangents(model, plans, q, lam)])
         return q, np.zeros(nq), sq0, sv0
     # The deck's shape and rates as each rebuilt model starts them (projected onto its constraint
     # manifold): the derivative of the start the whole run takes, to O(h^2).
@@ -72,7 +77,7 @@ def dynamic_sensitivities(model, plans, ts: dict, worst_points=None, jacket_extr
         raise RunError(f"deck '{model.name}': the design sensitivities of a dynamic run need its time series in "
                        "memory; this run streamed it to disk (a larger &solver dt_out keeps it in memory)")
     t_wall = time.perf_counter()
-    points = [_points(pl) for pl in plans]
+    points = [core_points(pl) for pl in plans]
     q0, v0, sq0, sv0 = start_sensitivities(model, plans)
     t = np.asarray(ts["t"], float)
     run = model.core.parameter_sensitivity(model.solver_settings(), float(t[0]), q0, v0, points, sq0, sv0, t[1:])
@@ -80,9 +85,9 @@ def dynamic_sensitivities(model, plans, ts: dict, worst_points=None, jacket_extr
     v = np.column_stack([run["v0"], run["v"]])
     sq = np.concatenate([run["sq0"][:, None, :], run["sq"]], axis=1)
     sv = np.concatenate([run["sv0"][:, None, :], run["sv"]], axis=1)
-    outputs = _Outputs(model, ts, periodic=False, worst_points=worst_points, jacket_extremes=jacket_extremes)
+    outputs = HistoryOutputs(model, ts, periodic=False, worst_points=worst_points, jacket_extremes=jacket_extremes)
     values = output_derivatives(model, plans, outputs, ts, t, q, v, sq, sv)
-    sens = _pack(plans, outputs.names, outputs.units, values, [])
+    sens = sensitivity_table(plans, outputs.names, outputs.units, values, [])
     sens["summary"]["method"] = (
         "forward sensitivities through the DAE (IDAS, parameter partials by differences of the rebuilt model at "
         "the fixed state; restarted at pulse edges), start from the deck's shape or dq*/dp of the equilibrium; "

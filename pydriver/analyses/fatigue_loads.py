@@ -76,7 +76,7 @@ def joint_arc_lengths(model) -> np.ndarray:
     return np.concatenate([[0.0], np.cumsum(lengths)[:-1]])
 
 
-def _components(ts: dict, joint: int, quantity: str, radius: float):
+def jacket_components(ts: dict, joint: int, quantity: str, radius: float):
     """(a, b, scale) of joint j: the history at angle phi is scale (a sin phi - b cos phi)."""
     if quantity == "strain":
         return ts[f"kappa_x{joint}_1pm"], ts[f"kappa_y{joint}_1pm"], radius
@@ -86,7 +86,7 @@ def _components(ts: dict, joint: int, quantity: str, radius: float):
 def circumferential_histories(ts: dict, joint: int, quantity: str, radius: float, points: int):
     """(angles [rad], histories (points, nt)) of the strain or bending moment around joint j."""
     phi = 2.0 * np.pi * np.arange(points) / points
-    a, b, scale = _components(ts, joint, quantity, radius)
+    a, b, scale = jacket_components(ts, joint, quantity, radius)
     return phi, scale * (np.sin(phi)[:, None] * a[None, :] - np.cos(phi)[:, None] * b[None, :])
 
 
@@ -115,7 +115,7 @@ class JacketPoints:
 
 def _point_history(ts, j, k, quantity, radius, points):
     phi = 2.0 * np.pi * np.arange(points) / points
-    a, b, scale = _components(ts, j, quantity, radius)
+    a, b, scale = jacket_components(ts, j, quantity, radius)
     return scale * (np.sin(phi[k]) * a - np.cos(phi[k]) * b)
 
 
@@ -139,7 +139,7 @@ def fatigue_points(model, ts: dict, periodic: bool) -> JacketPoints:
     f = model.deck.values["fatigue"]
     sn = sn_curve(model.deck)
     correction = mean_stress(model.deck)
-    record = _record(model, ts, periodic)
+    record = record_basis(model, ts, periodic)
     points = int(f["circumferential_points"])
     diameter = joint_geometry(model)["diameter"]
     columns = {name: np.empty((model.n_bodies, points)) for name in
@@ -179,7 +179,7 @@ def _joint_row(model, ts, j, sn, correction, record, periodic, jacket: JacketPoi
             "n_cycles": float(cyc.total)}
 
 
-def _record(model, ts, periodic: bool) -> dict:
+def record_basis(model, ts, periodic: bool) -> dict:
     """How the record maps to flight hours and to the DEL's equivalent cycle count."""
     if periodic:
         # Revolutions per hour of the built model's speed (CoreModel.update may have changed it
@@ -224,7 +224,7 @@ def fatigue_of_run(model, ts: dict, periodic: bool, jacket: JacketPoints | None 
     f = deck.values["fatigue"]
     sn = sn_curve(deck)
     correction = mean_stress(deck)
-    record = _record(model, ts, periodic)
+    record = record_basis(model, ts, periodic)
     jacket = jacket if jacket is not None else fatigue_points(model, ts, periodic)
     arc = joint_arc_lengths(model)
     unit = "-" if f["sn_quantity"] == "strain" else "Nm"

@@ -52,8 +52,9 @@ import scipy.linalg
 from pydriver.analyses.common import REACTION_NAMES
 from pydriver.analyses.linear_modes import modal_modes, symmetric_modes
 from pydriver.analyses.registry import analysis_of
+from pydriver.analyses.sensitivity_common import equilibrium_tangents, sensitivity_table
 from pydriver.analyses.statics import drop_pulse, unforced
-from pydriver.design import Parameter, parameters, ratio_unit, step
+from pydriver.design import Parameter, parameters, step
 from pydriver.errors import DeckError, RunError
 
 #: Loads of a static run's table (docs/outputs.md) whose sensitivities are reported, with units.
@@ -208,33 +209,6 @@ def static_outputs(model, q) -> tuple[np.ndarray, list, list]:
     return np.concatenate(values), names, units
 
 
-def _tangents(model, plans: list[Plan], q, lam) -> list[np.ndarray]:
-    """dx/dp = -(dR/dx)^-1 dR/dp of every plan's parameter (implicit function theorem)."""
-    nq, nc = model.nq, model.nc
-    base = model.core.static_system(q, lam, jacobian=True)
-    jac = np.zeros((nq + nc, nq + nc))
-    jac[:nq, :nq] = base["K"]
-    if nc:
-        jac[:nq, nq:] = -base["G"].T
-        jac[nq:, :nq] = base["G"]
-    cond = np.linalg.cond(jac)
-    if not np.isfinite(cond) or cond > 1.0e13:
-        raise RunError(f"deck '{model.name}': the equilibrium is singular (condition number of the "
-                       f"static Jacobian {cond:.1e}): its sensitivities are not defined there")
-    r0 = np.concatenate([base["residual"], base["g"]])
-    out = []
-    for pl in plans:
-        d_r = np.zeros(nq + nc)
-        for _, w, m in pl.points:
-            if m is None:
-                d_r += w * r0
-            else:
-                s = m.core.static_system(q, lam)
-                d_r += w * np.concatenate([s["residual"], s["g"]])
-        out.append(-np.linalg.solve(jac, d_r / pl.h))
-    return out
-
-
 def static_sensitivities(model, plans: list[Plan], q, lam) -> dict:
     """d(output)/dp of a static run's outputs at its equilibrium (q, lambda), every plan."""
     with unforced(model):
@@ -243,7 +217,7 @@ def static_sensitivities(model, plans: list[Plan], q, lam) -> dict:
 
 def _static_sensitivities(model, plans: list[Plan], q, lam) -> dict:
     y0, names, units = static_outputs(model, q)
-    dx = _tangents(model, plans, q, lam)
+    dx = equilibrium_tangents(model, plans, q, lam)
     values = []
     for pl, x_p in zip(plans, dx):
         dq = x_p[:model.nq]
@@ -251,7 +225,7 @@ def _static_sensitivities(model, plans: list[Plan], q, lam) -> dict:
         for s, w, m in pl.points:
             dy += w * (y0 if m is None else static_outputs(m, q + s * pl.h * dq)[0])
         values.append(dy / pl.h)
-    return _pack(plans, names, units, values, [])
+    return sensitivity_table(plans, names, units, values, [])
 
 
 def _reduced(m, q, lam, n0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -306,7 +280,7 @@ def _modal_sensitivities(model, plans: list[Plan], q, lam, modes: int = N_FREQUE
     warnings += damped_warnings
     names = [f"f{k + 1}_hz" for k in keep] + [f"fd{k + 1}_hz" for k in damped]
     units = ["Hz"] * len(names)
-    dx = _tangents(model, plans, q, lam)
+    dx = equilibrium_tangents(model, plans, q, lam)
     values = []
     for pl, x_p in zip(plans, dx):
         d_k = np.zeros_like(k_full)
@@ -335,7 +309,7 @@ def _modal_sensitivities(model, plans: list[Plan], q, lam, modes: int = N_FREQUE
             d_a = _state_matrix_difference(m0, k_full, d0, d_k, d_m, d_d)
             out += [_damped_derivative(root, d_a) for root in damped.values()]
         values.append(np.asarray(out))
-    sens = _pack(plans, names, units, values, warnings)
+    sens = sensitivity_table(plans, names, units, values, warnings)
     sens["values"] = {f"f{k + 1}_hz": float(freqs[k]) for k in keep}      # the optimiser's objective
     sens["values"].update({f"fd{k + 1}_hz": float(root["s"].imag / (2.0 * np.pi)) for k, root in damped.items()})
     return sens
@@ -392,29 +366,6 @@ def _damped_derivative(root: dict, d_a: tuple) -> float:
     return float(ds.imag / (2.0 * np.pi))
 
 
-def _pack(plans, names, units, values, warnings) -> dict:
-    """The summary entry and the rows of sensitivities.csv."""
-    rows = {"output": [], "parameter": [], "value": [], "unit": []}
-    table = {n: {} for n in names}
-    unit_table = {n: {} for n in names}
-    for pl, vals in zip(plans, values):
-        p = pl.parameter
-        for n, u, v in zip(names, units, vals):
-            unit = ratio_unit(u, p.unit)
-            rows["output"].append(n)
-            rows["parameter"].append(p.name)
-            rows["value"].append(float(v))
-            rows["unit"].append(unit)
-            table[n][p.name] = float(v)
-            unit_table[n][p.name] = unit
-    summary = {"method": "implicit function theorem at the equilibrium; parameter partials by differences "
-                         "of the rebuilt model at the fixed state (docs/model.md, \"Design sensitivities\")",
-               "parameters": {pl.parameter.name: {"value": pl.parameter.value, "unit": pl.parameter.unit,
-                                                   "step": pl.h, "difference": pl.scheme} for pl in plans},
-               "d_output_d_parameter": table, "units": unit_table}
-    return {"summary": summary, "rows": rows, "warnings": warnings}
-
-
 def static_result_sensitivities(model, plans: list[Plan], result) -> dict:
     """The registry's differentiation of a finished static run (pydriver.analyses.registry)."""
     return static_sensitivities(model, plans, result.extra["q"], result.extra["lambda"])
@@ -430,7 +381,6 @@ def attach_sensitivities(model, result, plans: list[Plan]) -> None:
     as its analysis differentiates it (the registry's ``sensitivities``)."""
     if not plans:
         return
-    from pydriver.analyses.registry import analysis_of
     sens = analysis_of(model).differentiate(model, plans, result)
     result.summary["sensitivities"] = sens["summary"]
     if sens["warnings"]:
