@@ -261,7 +261,8 @@ def _add_reference_parsers(sub):
 
 
 def _reference_command(args) -> int:
-    from pydriver.reference import full_reference, keys_reference, outputs_reference, print_text
+    from pydriver.reference import full_reference, keys_reference, outputs_reference
+    from pydriver.reference_output import print_text
     try:
         if args.command == "keys":
             text = keys_reference(args.name, args.format)

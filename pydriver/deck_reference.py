@@ -11,7 +11,7 @@ import sys
 
 from pydriver.document import markdown
 from pydriver.key_scope import describe
-from pydriver.reference import write_generated
+from pydriver.reference_output import write_generated
 from pydriver.schema import reference_document
 
 

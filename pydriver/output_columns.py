@@ -18,6 +18,8 @@ import re
 import sys
 from dataclasses import dataclass
 
+from pydriver.reference_output import write_generated
+
 
 @dataclass(frozen=True)
 class Column:
@@ -471,8 +473,8 @@ def outputs_markdown() -> str:
 
 
 def main(argv=None) -> int:
-    """Write ``docs/outputs.md`` (or PATH; installed: print it, see pydriver.reference.write_generated)."""
-    from pydriver.reference import write_generated
+    """Write ``docs/outputs.md`` (or PATH; installed: print it, see
+    pydriver.reference_output.write_generated)."""
     argv = sys.argv[1:] if argv is None else argv
     return write_generated(argv, "outputs.md", outputs_markdown(), "# Output files")
 
