@@ -19,16 +19,18 @@ from pydriver.output_columns import bare_name
 
 # The table of a sweep and its records are the sweep package's; their names stay importable
 # from here, where they were first defined.
-from pydriver.sweep.records import MANIFEST, read_manifest, read_record
-from pydriver.sweep.table import (
+from pydriver.sweep.columns import (
     DYNAMIC_COLUMNS,
     REACTION_COLUMNS,
     RESULT_COLUMNS,
     SOLVER_COLUMNS,
     SOLVER_KEYS_DYNAMIC,
     SOLVER_KEYS_STATIC,
-    TABLE,
     TEXT_COLUMNS,
+)
+from pydriver.sweep.records import MANIFEST, read_manifest, read_record
+from pydriver.sweep.table import (
+    TABLE,
     rows_to_table,
     summary_row,
     sweep_rows,

@@ -9,8 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
+from pydriver.sweep.columns import REACTION_COLUMNS
 from pydriver.sweep.layout import write_file
-from pydriver.sweep.table import REACTION_COLUMNS
 
 PLOT_RESULTS = ["f1_hz", "f1_damped_hz", "zeta1"] + REACTION_COLUMNS
 

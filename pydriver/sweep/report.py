@@ -9,6 +9,7 @@ import re
 from pathlib import Path
 
 from pydriver.report_html import STYLE, _table, glossary_section
+from pydriver.sweep.plots import axis_label
 
 #: Result columns shown (when present) after the id and the swept keys; the rest stay in sweep.csv.
 SHOWN = ("f1_hz", "f2_hz", "f1_damped_hz", "zeta1", "FA_x", "FA_y", "FA_z", "FB_x", "FB_y", "FB_z",
@@ -47,7 +48,6 @@ def sweep_report_html(out: Path, manifest: dict, columns: list[str], rows: list[
 
 def figure_caption(name: str, params: list) -> str:
     """What a sweep plot (``<result>_vs_<parameter>.png``) shows."""
-    from pydriver.sweep.plots import axis_label
     result, _, param = Path(name).stem.partition("_vs_")
     swept = next((q for q in params if re.sub(r"[^\w.-]", "_", q) == param), param)
     others = [q for q in params if q != swept]

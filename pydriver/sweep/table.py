@@ -16,28 +16,22 @@ from pathlib import Path
 
 import numpy as np
 
+from pydriver.sweep.columns import (
+    DYNAMIC_COLUMNS,
+    RESULT_COLUMNS,
+    SOLVER_COLUMNS,
+    TEXT_COLUMNS,
+)
 from pydriver.sweep.errors import SweepError
 from pydriver.sweep.faults import writing
 from pydriver.sweep.given_paths import checked_path
 from pydriver.sweep.layout import check_sweep_directory, existing_manifest, write_file
 from pydriver.sweep.lock import hold_lock
+from pydriver.sweep.plots import plot_sweep
 from pydriver.sweep.records import read_manifest, read_record
+from pydriver.sweep.report import sweep_report_html
 
 TABLE = "sweep.csv"
-
-SOLVER_KEYS_DYNAMIC = ("steps", "residual_evals", "jacobian_evals", "error_test_failures",
-                       "convergence_failures")
-SOLVER_KEYS_STATIC = ("newton_iterations", "residual_evals", "jacobian_evals", "line_search_cuts")
-REACTION_COLUMNS = [f"{kind}{side}_{c}" for side in "AB" for kind in "FM" for c in "xyz"]
-# Columns present in every sweep.csv (blank where a run does not have the quantity, e.g.
-# frequencies of a static run or FB_* of an open chain), so the layout depends only on
-# the kind of analysis, not on which runs happened to fail.
-RESULT_COLUMNS = (["analysis", "wall_time_s", "max_constraint_violation_m"] + REACTION_COLUMNS
-                  + ["f1_hz", "f2_hz", "f3_hz", "f1_damped_hz", "zeta1"])
-# Optional columns, included when at least one run has them.
-DYNAMIC_COLUMNS = ["energy_drift_rel"]
-SOLVER_COLUMNS = [f"solver_{k}" for k in dict.fromkeys(SOLVER_KEYS_STATIC + SOLVER_KEYS_DYNAMIC)]
-TEXT_COLUMNS = {"id", "analysis", "error"}
 
 
 def summary_row(summary: dict) -> dict:
@@ -290,12 +284,10 @@ def collect_locked(out: Path, manifest: dict, plots: bool = True, report: bool =
                          failed=[r["id"] for r in rows if r["error"]],
                          missing=[p["id"] for p in manifest["points"] if p["id"] not in done])
     if plots and rows:
-        from pydriver.sweep.plots import plot_sweep  # matplotlib only when drawing
         with writing(out / "plots", hint):
             plot_sweep(out, rows_to_table(columns, rows, manifest["params"]), manifest["params"],
                        manifest.get("scales", {}))
     if report:
-        from pydriver.sweep.report import sweep_report_html
         with writing(out / "report.html", hint):
             write_file(out, "report.html", sweep_report_html(out, manifest, columns, rows, status))
     return status
