@@ -16,7 +16,9 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import ctypes.util
+import enum
 import os
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -80,6 +82,55 @@ def _raise(deck: str, stat: int, key, msg, context: str = ""):
         group, _, name = key.partition(".")
         raise DeckError(deck, group, name, msg)
     raise RunError(f"deck '{deck}': {msg}")
+
+
+#: The names of the statistics the core returns as an integer array, in its order
+#: (src_fortran/api.f90): a static solve's, a time integration's, and an integration with
+#: forward sensitivities (rotorcable_monodromy, rotorcable_parameter_sensitivity).
+STATIC_STATS = ("newton_iterations", "residual_evals", "jacobian_evals", "line_search_cuts")
+INTEGRATION_STATS = ("steps", "residual_evals", "jacobian_evals", "error_test_failures", "convergence_failures")
+SENSITIVITY_STATS = INTEGRATION_STATS + ("sensitivity_residual_evals",)
+
+
+def solver_stats(names: tuple, counts) -> dict:
+    """The core's statistics array ``counts`` by name (``names``: one of :data:`STATIC_STATS`,
+    :data:`INTEGRATION_STATS`, :data:`SENSITIVITY_STATS`), as the summaries report them."""
+    return dict(zip(names, (int(x) for x in counts)))
+
+
+class PartialKind(enum.IntEnum):
+    """How the core forms a design parameter's explicit partial dF/dp from the rebuilt models at
+    the fixed state.  The values are the core's ``loads_only`` codes (src_fortran/api.f90,
+    rc_parameter_sensitivity and rc_probe_parameter_partial: 1 sets ``points%loads_only``, 2
+    ``points%bodies_and_loads``, anything else neither)."""
+
+    #: The rebuilt models' whole residuals.
+    WHOLE_RESIDUALS = 0
+    #: Their loads' generalized forces on this model's kinematics (they differ in loads only).
+    LOADS_ONLY = 1
+    #: Their Newton-Euler passes on this model's motion (they differ in bodies and loads).
+    BODIES_AND_LOADS = 2
+
+
+@dataclass(frozen=True)
+class DifferencePoint:
+    """One term of a parameter's difference: ``weight`` F(model at p + ``offset`` h) / h."""
+
+    offset: float
+    weight: float
+    core: CoreModel | None      #: the rebuilt model's core; None: this model
+
+
+@dataclass(frozen=True)
+class SensitivityParameter:
+    """A design parameter as the core's sensitivity integration takes it
+    (:meth:`CoreModel.parameter_sensitivity`)."""
+
+    step: float                 #: h of the differences
+    scale: float                #: pbar > 0: the sensitivity's absolute tolerance is atol / pbar
+    points: list                #: the :class:`DifferencePoint` terms of dF/dp
+    partial: PartialKind = PartialKind.WHOLE_RESIDUALS
+    changed_loads: list | None = None   #: per load slot, whether the parameter changes it (None: all)
 
 
 def _ints(a) -> np.ndarray:
@@ -251,8 +302,7 @@ class CoreModel:
         q, lam, st, stat, key, msg = _api.rc_static(self.handle, float(t), _reals(q_start), max(self.nc, 1),
                                                     float(tol), int(max_iter))
         _raise(self.deck, stat, key, msg)
-        stats = dict(zip(("newton_iterations", "residual_evals", "jacobian_evals", "line_search_cuts"),
-                         (int(x) for x in st)))
+        stats = solver_stats(STATIC_STATS, st)
         return q, lam[:self.nc].copy(), stats
 
     def static_system(self, q, lam, t: float = 0.0, jacobian: bool = False) -> dict:
@@ -307,8 +357,7 @@ class CoreModel:
         q, v, qs, vs, basis, phi, st, stat, key, msg = _api.rc_monodromy(
             self.handle, *_parameter_arrays(settings), float(t0), _reals(q0), _reals(v0), t, nf)
         _raise(self.deck, stat, key, msg)
-        stats = dict(zip(("steps", "residual_evals", "jacobian_evals", "error_test_failures",
-                          "convergence_failures", "sensitivity_residual_evals"), (int(x) for x in st)))
+        stats = solver_stats(SENSITIVITY_STATS, st)
         return {"q0": qs, "v0": vs, "q": q, "v": v, "basis": basis, "phi": phi, "stats": stats}
 
     def monodromy_columns(self, settings: dict, t0: float, q0, v0, t, dq, dv, column_atol: float) -> dict:
@@ -339,14 +388,13 @@ class CoreModel:
         """An integration from (q0, v0) at t0 with the forward sensitivities of design parameters
         (rotorcable_parameter_sensitivity).
 
-        ``points`` holds, per parameter, ``(h, pbar, [(offset, weight, CoreModel or None), ...])``
-        and optionally a fourth item, ``loads_only`` (True or 1; 2: bodies and loads, the rebuilt
-        models' Newton-Euler passes on this model's motion), and a fifth, the flags of the load slots
-        the parameter changes (None: all): the explicit partial dF/dp = sum weight
-        F(model at p + offset h) / h (None: this model), and the parameter's scale pbar > 0 (the
-        sensitivity's absolute tolerance is atol / pbar).  ``loads_only`` (the rebuilt models
-        differ from this one in their loads only) lets the core difference the loads'
-        generalized forces instead of whole residuals, of the changed slots only.
+        ``points`` holds a :class:`SensitivityParameter` per parameter: the explicit partial
+        dF/dp = sum weight F(model at p + offset h) / h over its :class:`DifferencePoint` terms
+        (core None: this model), and the parameter's scale pbar > 0 (the sensitivity's absolute
+        tolerance is atol / pbar).  Its ``partial`` (:class:`PartialKind`: the rebuilt models
+        differ from this one in their loads only, or in bodies and loads) lets the core
+        difference the loads' generalized forces instead of whole residuals, of the changed
+        slots only.
         ``tolerance_scale`` (>= 1) loosens the sensitivities' rtol and atol by that factor (the
         state keeps the settings' own).
         ``sq0``, ``sv0`` (nq, np) are the start sensitivities of q and v (made consistent in the
@@ -356,24 +404,23 @@ class CoreModel:
         """
         t = _reals(t)
         n_par = len(points)
-        n_pts = max(len(p[2]) for p in points)
+        n_pts = max(len(p.points) for p in points)
         handles = np.zeros((n_pts, n_par), dtype=np.int32, order="F")
         offsets = np.zeros((n_pts, n_par), order="F")
         weights = np.zeros((n_pts, n_par), order="F")
-        loads_only = np.array([int(p[3]) if len(p) > 3 else 0 for p in points], dtype=np.int32)
-        changed = load_mask([p[4] if len(p) > 4 else None for p in points])
-        for k, (_, _, pts, *_) in enumerate(points):
-            for i, (s, w, m) in enumerate(pts):
-                handles[i, k] = 0 if m is None else m.handle
-                offsets[i, k], weights[i, k] = s, w
+        loads_only = np.array([int(p.partial) for p in points], dtype=np.int32)
+        changed = load_mask([p.changed_loads for p in points])
+        for k, p in enumerate(points):
+            for i, d in enumerate(p.points):
+                handles[i, k] = 0 if d.core is None else d.core.handle
+                offsets[i, k], weights[i, k] = d.offset, d.weight
         q, v, qs, vs, sq, sv, sq_start, sv_start, st, stat, key, msg = _api.rc_parameter_sensitivity(
             self.handle, *_parameter_arrays(settings), float(t0), _reals(q0), _reals(v0), handles, offsets, weights,
-            _reals([p[0] for p in points]), _reals([p[1] for p in points]), loads_only, changed,
+            _reals([p.step for p in points]), _reals([p.scale for p in points]), loads_only, changed,
             float(tolerance_scale),
             np.asfortranarray(sq0, float), np.asfortranarray(sv0, float), t)
         _raise(self.deck, stat, key, msg)
-        stats = dict(zip(("steps", "residual_evals", "jacobian_evals", "error_test_failures",
-                          "convergence_failures", "sensitivity_residual_evals"), (int(x) for x in st)))
+        stats = solver_stats(SENSITIVITY_STATS, st)
         return {"q0": qs, "v0": vs, "q": q, "v": v, "sq": sq, "sv": sv, "sq0": sq_start, "sv0": sv_start,
                 "stats": stats}
 
@@ -418,8 +465,7 @@ class CoreSession:
         """States (nq, len(t)) at the increasing times t; raises RunError on failure."""
         t = _reals(t)
         q, v, st, stat, key, msg = _api.rc_dynamic_advance(self.handle, t, self.model.nq)
-        self.stats = dict(zip(("steps", "residual_evals", "jacobian_evals", "error_test_failures",
-                               "convergence_failures"), (int(x) for x in st)))
+        self.stats = solver_stats(INTEGRATION_STATS, st)
         _raise(self.model.deck, stat, key, msg)
         return q, v
 

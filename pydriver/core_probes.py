@@ -18,7 +18,17 @@ from __future__ import annotations
 import numpy as np
 
 from pydriver import _rotorcable
-from pydriver.core import CoreModel, _parameter_arrays, _raise, _reals, _trapped_if_asked, load_mask
+from pydriver.core import (
+    INTEGRATION_STATS,
+    CoreModel,
+    PartialKind,
+    _parameter_arrays,
+    _raise,
+    _reals,
+    _trapped_if_asked,
+    load_mask,
+    solver_stats,
+)
 
 
 class ProbesNotBuilt(RuntimeError):
@@ -75,17 +85,17 @@ def evaluate_model(path, q, v=None, vdot=None, lam=None, t: float = 0.0) -> dict
     return evaluate(m.core, q, v, vdot, lam, t)
 
 
-def parameter_partial(core: CoreModel, models, weights, h: float, y, yd, t: float = 0.0, loads_only: bool = False,
-                      changed_loads=None) -> np.ndarray:
+def parameter_partial(core: CoreModel, models, weights, h: float, y, yd, t: float = 0.0,
+                      partial: PartialKind = PartialKind.WHOLE_RESIDUALS, changed_loads=None) -> np.ndarray:
     """F_p = sum_i w_i F(models[i]) / h at (t, y, y') (None: this model), as the sensitivity
-    integration takes it; ``loads_only``: from the loads' generalized forces on this model's
-    kinematics (rotorcable_parameter_sensitivity, loads_partial), or, 2, from the rebuilt
-    models' bodies and loads on its motion (bodies_partial), of the load slots where
-    ``changed_loads`` (default: all)."""
+    integration takes it; ``partial`` LOADS_ONLY: from the loads' generalized forces on this
+    model's kinematics (rotorcable_parameter_sensitivity, loads_partial), or BODIES_AND_LOADS:
+    from the rebuilt models' bodies and loads on its motion (bodies_partial), of the load slots
+    where ``changed_loads`` (default: all)."""
     handles = np.array([0 if m is None else m.handle for m in models], dtype=np.int32)
     changed = load_mask([changed_loads])
     fp, stat, msg = _probes.rc_probe_parameter_partial(core.handle, handles, _reals(weights), float(h),
-                                                       int(loads_only), changed[:, 0], float(t), _reals(y),
+                                                       int(partial), changed[:, 0], float(t), _reals(y),
                                                        _reals(yd))
     _raise(core.deck, stat, "", msg)
     return fp
@@ -196,8 +206,7 @@ def integrate_timed(core: CoreModel, method: int, settings: dict, t0: float, t_e
         _reals(q0), _reals(v0), int(n_samples), core.n_bodies)
     _raise(core.deck, stat, "", msg)
     return {"cm_samples": cm.transpose(2, 1, 0).copy(), "q_end": q_end, "v_end": v_end,
-            "stats": dict(zip(("steps", "residual_evals", "jacobian_evals", "error_test_failures",
-                               "convergence_failures"), (int(x) for x in st))),
+            "stats": solver_stats(INTEGRATION_STATS, st),
             "cpu_s": float(cpu), "wall_s": float(wall)}
 
 

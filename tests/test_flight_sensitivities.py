@@ -48,6 +48,7 @@ from pydriver.analyses.flight_sensitivities import (
     worst_points_of,
 )
 from pydriver.analyses.history_outputs import HistoryOutputs, history_signal
+from pydriver.core import PartialKind
 from pydriver.design import parameters
 from pydriver.model import Model
 
@@ -236,9 +237,9 @@ def test_loads_only_partials_match_whole_residual_partials():
         models = [None if m is None else m.core for _, _, m in pl.points]
         weights = [w for _, w, _ in pl.points]
         whole = probes.parameter_partial(model.core, models, weights, pl.h, y, yd, t)
-        fast = probes.parameter_partial(model.core, models, weights, pl.h, y, yd, t, loads_only=True)
-        masked = probes.parameter_partial(model.core, models, weights, pl.h, y, yd, t, loads_only=True,
-                                              changed_loads=pl.changed_loads)
+        fast = probes.parameter_partial(model.core, models, weights, pl.h, y, yd, t, partial=PartialKind.LOADS_ONLY)
+        masked = probes.parameter_partial(model.core, models, weights, pl.h, y, yd, t,
+                                          partial=PartialKind.LOADS_ONLY, changed_loads=pl.changed_loads)
         err = np.max(np.abs(fast - whole)) / np.max(np.abs(whole))
         err_masked = np.max(np.abs(masked - whole)) / np.max(np.abs(whole))
         print(pl.parameter.name, f"{err:.1e} {err_masked:.1e}")
@@ -272,8 +273,8 @@ def test_bodies_and_loads_partials_match_whole_residual_partials():
         models = [None if m is None else m.core for _, _, m in pl.points]
         weights = [w for _, w, _ in pl.points]
         whole = probes.parameter_partial(model.core, models, weights, pl.h, y, yd, t)
-        fast = probes.parameter_partial(model.core, models, weights, pl.h, y, yd, t, loads_only=2,
-                                            changed_loads=pl.changed_loads)
+        fast = probes.parameter_partial(model.core, models, weights, pl.h, y, yd, t,
+                                        partial=PartialKind.BODIES_AND_LOADS, changed_loads=pl.changed_loads)
         err = np.max(np.abs(fast - whole)) / np.max(np.abs(whole))
         print(pl.parameter.name, f"{err:.1e}")
         assert np.max(np.abs(whole)) > 0.0 and err < 1e-8, (pl.parameter.name, err)

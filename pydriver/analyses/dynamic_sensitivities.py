@@ -34,7 +34,7 @@ import numpy as np
 
 from pydriver.analyses.history_outputs import HistoryOutputs, output_derivatives
 from pydriver.analyses.sensitivity_common import (
-    core_points,
+    core_parameter,
     equilibrium_tangents,
     sensitivity_table,
 )
@@ -77,7 +77,7 @@ def dynamic_sensitivities(model, plans, ts: dict, worst_points=None, jacket_extr
         raise RunError(f"deck '{model.name}': the design sensitivities of a dynamic run need its time series in "
                        "memory; this run streamed it to disk (a larger &solver dt_out keeps it in memory)")
     t_wall = time.perf_counter()
-    points = [core_points(pl) for pl in plans]
+    points = [core_parameter(pl) for pl in plans]
     q0, v0, sq0, sv0 = start_sensitivities(model, plans)
     t = np.asarray(ts["t"], float)
     run = model.core.parameter_sensitivity(model.solver_settings(), float(t[0]), q0, v0, points, sq0, sv0, t[1:])

@@ -65,7 +65,8 @@ from pydriver.analyses.history_outputs import (
     history_signal,
     output_derivatives,
 )
-from pydriver.analyses.sensitivity_common import core_points, sensitivity_table
+from pydriver.analyses.sensitivity_common import core_parameter, sensitivity_table
+from pydriver.core import DifferencePoint, SensitivityParameter
 from pydriver.errors import RunError
 
 #: The rotor speed: it changes the revolution period, so its sensitivities are taken at fixed
@@ -196,7 +197,9 @@ def _periodic_start_krylov(model, settings, period, q0, v0, d_x, t_out):
     for it in range(MAX_KRYLOV):
         w_in = block / scale[:, None]
         m = block.shape[1]
-        off = [(1.0, 1.0, [(1.0, 0.5, None), (-1.0, -0.5, None)])] * m
+        # The parameter partials off: a difference of this model with itself, at h = pbar = 1.
+        off = [SensitivityParameter(step=1.0, scale=1.0,
+                                    points=[DifferencePoint(1.0, 0.5, None), DifferencePoint(-1.0, -0.5, None)])] * m
         # The state of a relaxed block is relaxed too, by at most STATE_RELAX_MAX (see there).
         state_relax = min(relax, STATE_RELAX_MAX)
         run = model.core.parameter_sensitivity(
@@ -275,7 +278,7 @@ def flight_sensitivities(model, plans, period: float, start: dict, ts: dict, wor
     """
     t_wall = time.perf_counter()
     settings = model.sensitivity_solver_settings()
-    points = [core_points(pl) for pl in plans]
+    points = [core_parameter(pl) for pl in plans]
     n_par, nq = len(plans), model.nq
     q0, v0 = start["q0"], start["v0"]
     zeros = np.zeros((nq, n_par))

@@ -9,18 +9,23 @@ from __future__ import annotations
 
 import numpy as np
 
+from pydriver.core import DifferencePoint, PartialKind, SensitivityParameter
 from pydriver.design import ratio_unit
 from pydriver.errors import RunError
 
 
-def core_points(pl) -> tuple:
+def core_parameter(pl) -> SensitivityParameter:
     """A plan (:class:`pydriver.analyses.sensitivities.Plan`) as the core's sensitivity
-    integration takes it (:meth:`pydriver.core.CoreModel.parameter_sensitivity`): (h, pbar,
-    [(offset, weight, CoreModel or None)], partial kind, changed load slots), pbar = |p| (1 for
-    p = 0), kind 1: loads only, 2: bodies and loads, 0: whole residuals."""
-    pbar = abs(pl.parameter.value) if pl.parameter.value != 0.0 else 1.0
-    kind = 1 if pl.loads_only else 2 if getattr(pl, "bodies_and_loads", False) else 0
-    return (pl.h, pbar, [(s, w, None if m is None else m.core) for s, w, m in pl.points], kind, pl.changed_loads)
+    integration takes it (:meth:`pydriver.core.CoreModel.parameter_sensitivity`): the rebuilt
+    models' cores at its difference points, its scale (|p|, or 1 for p = 0), how the core may
+    form its partial and the load slots that partial takes."""
+    scale = abs(pl.parameter.value) if pl.parameter.value != 0.0 else 1.0
+    partial = (PartialKind.LOADS_ONLY if pl.loads_only
+               else PartialKind.BODIES_AND_LOADS if getattr(pl, "bodies_and_loads", False)
+               else PartialKind.WHOLE_RESIDUALS)
+    return SensitivityParameter(step=pl.h, scale=scale,
+                                points=[DifferencePoint(s, w, None if m is None else m.core) for s, w, m in pl.points],
+                                partial=partial, changed_loads=pl.changed_loads)
 
 
 def equilibrium_tangents(model, plans: list, q, lam) -> list[np.ndarray]:
