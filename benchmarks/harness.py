@@ -39,9 +39,9 @@ def timed_run(model, q0, v0, t_end: float, method: str = "rotorcable-IDA", rtol:
     if out["stats"]["steps"] <= 0 or not np.all(np.isfinite(out["cm_samples"])):
         raise NoWorkDone(f"{model.name}, {method}, rtol {rtol:g}: {out['stats']['steps']} steps; no work done")
     end = model.core.sample([t_end], out["q_end"][:, None], out["v_end"][:, None])
-    out["reactions_end"] = end["wrenches"][0]
-    out["gmax_end"] = float(end["g_max"][0])
-    out["tip_end"] = end["joints"][:, -1, 0]
+    out["reactions_end"] = end.wrenches.as_flat()[0]
+    out["gmax_end"] = float(end.g_max[0])
+    out["tip_end"] = end.joints[:, -1, 0]
     return out
 
 

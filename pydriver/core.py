@@ -1,7 +1,9 @@
 """The one Python module of the driver that calls the compiled core's run API
 (``pydriver._rotorcable``, f2py: ``src_fortran/api.f90``) and unpacks its positional results.
 Everything else works with :class:`CoreModel` and :class:`CoreSession` and gets named numpy
-arrays and exceptions back.  The test and benchmark probes (``src_fortran/probes.f90``) are
+arrays, records built here (:class:`Sample`, :class:`Wrenches`; the statistics by the names of
+:data:`STATIC_STATS` ...) and exceptions back, and hands design parameters in as
+:class:`SensitivityParameter` records.  The test and benchmark probes (``src_fortran/probes.f90``) are
 :mod:`pydriver.core_probes`, which only the tests and benchmarks import; it unpacks their
 results with the helpers here.
 
@@ -131,6 +133,56 @@ class SensitivityParameter:
     points: list                #: the :class:`DifferencePoint` terms of dF/dp
     partial: PartialKind = PartialKind.WHOLE_RESIDUALS
     changed_loads: list | None = None   #: per load slot, whether the parameter changes it (None: all)
+
+
+@dataclass(frozen=True)
+class Wrenches:
+    """The supports' wrenches on the chain in the model frame: force [N] and moment [Nm] at
+    clamp A and at support B (zero for an open chain), each (..., 3) with one row per sample."""
+
+    force_a: np.ndarray
+    moment_a: np.ndarray
+    force_b: np.ndarray
+    moment_b: np.ndarray
+
+    @classmethod
+    def from_flat(cls, w) -> Wrenches:
+        """From the 12 values FA, MA, FB, MB on the last axis (the order of the core's and of
+        :data:`pydriver.analyses.common.REACTION_NAMES`)."""
+        w = np.asarray(w, float)
+        return cls(w[..., 0:3], w[..., 3:6], w[..., 6:9], w[..., 9:12])
+
+    def as_flat(self) -> np.ndarray:
+        """The 12 values FA, MA, FB, MB on the last axis (:meth:`from_flat`'s order)."""
+        return np.concatenate([self.force_a, self.moment_a, self.force_b, self.moment_b], axis=-1)
+
+    def at(self, k) -> Wrenches:
+        """The wrenches of sample(s) ``k``."""
+        return Wrenches(self.force_a[k], self.moment_a[k], self.force_b[k], self.moment_b[k])
+
+
+@dataclass(frozen=True)
+class Sample:
+    """The output quantities of nt states (:meth:`CoreModel.sample`, rc_sample), n bodies and
+    nc constraints."""
+
+    wrenches: Wrenches            #: the supports' wrenches on the chain, (nt, 3) each
+    kinetic: np.ndarray           #: kinetic energy (nt) [J]
+    potential: np.ndarray         #: potential energy (nt) [J]
+    g_max: np.ndarray             #: largest constraint violation (nt) [m]
+    angles: np.ndarray            #: thesis angles gamma, beta (2, n, nt) [rad]
+    cm: np.ndarray                #: centres of mass (3, n, nt) [m]
+    joints: np.ndarray            #: joint points (3, n + 1, nt) [m]
+    axial: np.ndarray             #: axial force per joint (nt, n) [N]
+    shear: np.ndarray             #: shear force per joint (nt, n) [N]
+    bending: np.ndarray           #: bending moment per joint (nt, n) [Nm]
+    torsion: np.ndarray           #: torsional moment per joint (nt, n) [Nm]
+    bend_angle: np.ndarray        #: bend angle per joint (nt, n) [rad]
+    moment_xy: np.ndarray         #: signed bending moment in the child's body axes (nt, 2, n) [Nm]
+    bend_xy: np.ndarray           #: signed bend angle in the child's body axes (nt, 2, n) [rad]
+    psi: np.ndarray               #: rotor azimuth (nt) [rad]
+    lam: np.ndarray               #: constraint multipliers (nt, nc)
+    support_velocities: np.ndarray  #: the supports' velocities A, B, 6 each (nt, 12)
 
 
 def _ints(a) -> np.ndarray:
@@ -424,18 +476,18 @@ class CoreModel:
         return {"q0": qs, "v0": vs, "q": q, "v": v, "sq": sq, "sv": sv, "sq0": sq_start, "sv0": sv_start,
                 "stats": stats}
 
-    def sample(self, t, q, v) -> dict:
+    def sample(self, t, q, v) -> Sample:
         """Output quantities at the states q, v (nq, nt) and times t (nt)."""
         t = _reals(t)
         (wr, kin, pot, gmax, angles, cm, joints, axial, shear, bending, torsion, bend, moment_xy, bend_xy, psi, lam,
          sup, stat, key, msg) = _api.rc_sample(self.handle, t, np.asfortranarray(q, float), np.asfortranarray(v, float),
                                self.n_bodies, max(self.nc, 1))
         _raise(self.deck, stat, key, msg)
-        return {"wrenches": wr.T, "kinetic": kin, "potential": pot, "g_max": gmax, "angles": angles,
-                "cm": cm, "joints": joints, "axial": axial.T, "shear": shear.T, "bending": bending.T,
-                "torsion": torsion.T, "bend_angle": bend.T, "moment_xy": np.moveaxis(moment_xy, 2, 0),
-                "bend_xy": np.moveaxis(bend_xy, 2, 0), "psi": psi, "lambda": lam[:self.nc].T,
-                "support_velocities": sup.T}
+        return Sample(wrenches=Wrenches.from_flat(wr.T), kinetic=kin, potential=pot, g_max=gmax, angles=angles,
+                      cm=cm, joints=joints, axial=axial.T, shear=shear.T, bending=bending.T,
+                      torsion=torsion.T, bend_angle=bend.T, moment_xy=np.moveaxis(moment_xy, 2, 0),
+                      bend_xy=np.moveaxis(bend_xy, 2, 0), psi=psi, lam=lam[:self.nc].T,
+                      support_velocities=sup.T)
 
     def constraint_residual(self, q, t: float = 0.0) -> np.ndarray:
         """The constraint residual g(q, t) (nc entries; clamp B: position rows, then rotation rows)."""

@@ -86,7 +86,7 @@ def test_anchor_potential_is_the_closed_form_and_the_work_of_its_forces(tmp_path
     q1 = q0 + 0.8 * rng.standard_normal(m.nq)
 
     def potential(q):
-        return float(m.core.sample(np.zeros(1), q.reshape(-1, 1), np.zeros((m.nq, 1)))["potential"][0])
+        return float(m.core.sample(np.zeros(1), q.reshape(-1, 1), np.zeros((m.nq, 1))).potential[0])
 
     for q in (q0, q1):
         p_j = m.core.shape(q)["joints"][joint - 1]

@@ -74,7 +74,8 @@ def test_ball_reactions_balance_the_weight_and_take_no_moment(tmp_path):
     assert (m.nc, m.description["support"]) == (3, "ball")
     q, lam, _ = equilibrium(m)
     s = m.core.sample(np.zeros(1), q.reshape(-1, 1), np.zeros((m.nq, 1)))
-    f_a, m_a, f_b, m_b = s["wrenches"][0].reshape(4, 3)
+    w = s.wrenches.at(0)
+    f_a, m_a, f_b, m_b = w.force_a, w.moment_a, w.force_b, w.moment_b
     shape = m.core.shape(q)
     masses = m.description["bodies"].masses
     g = np.array([0.0, 0.0, -9.81])

@@ -89,7 +89,7 @@ def test_moving_clamp_energy_equals_the_work_of_the_supports():
     e = res.extra["energy"]
     t = ts["t"]
     sample = m.core.sample(t, res.extra["q"].T, np.zeros_like(res.extra["q"].T))   # velocities of supports
-    sup = sample["support_velocities"]
+    sup = sample.support_velocities
     power = sum(ts[f"F{s}_{c}"] * sup[:, 6 * i + k] + ts[f"M{s}_{c}"] * sup[:, 6 * i + 3 + k]
                 for i, s in enumerate("AB") for k, c in enumerate("xyz"))
     work = np.concatenate([[0.0], np.cumsum(0.5 * (power[1:] + power[:-1]) * np.diff(t))])

@@ -69,7 +69,7 @@ def test_pulse_off_is_the_model_without_pulse():
         same_model(model, rebuilt, t=t)
         ref = rebuilt.core.sample([t], model.q0[:, None], np.zeros((model.nq, 1)))
         got = model.core.sample([t], model.q0[:, None], np.zeros((model.nq, 1)))
-        assert close(got["wrenches"], ref["wrenches"])
+        assert close(got.wrenches.as_flat(), ref.wrenches.as_flat())
     # On again after the scope: the pulse's force is back in the residual at t.
     assert model.core.parameter("loads.pulse")[0] == 1.0
     on = model.core.static_system(model.q0, np.zeros(model.nc), t)["residual"]

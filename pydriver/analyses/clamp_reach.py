@@ -114,7 +114,7 @@ def _azimuth_text(model, q, t: float) -> str:
     rot = model.description["rotor"]
     if rot is None:
         return ""
-    psi = float(model.core.sample([t], q[:, None], np.zeros((model.nq, 1)))["psi"][0])
+    psi = float(model.core.sample([t], q[:, None], np.zeros((model.nq, 1))).psi[0])
     return f" (blade azimuth {np.degrees(psi + rot['azimuth0']) % 360.0:.1f} deg)"
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pydriver.core import Sample, Wrenches
 from pydriver.errors import DeckError
 
 RAD2DEG = 180.0 / np.pi
@@ -14,11 +15,11 @@ REACTION_NAMES = ["FA_x", "FA_y", "FA_z", "MA_x", "MA_y", "MA_z", "FB_x", "FB_y"
 SUPPORT_LOAD_NAMES = [f"{n[:2]}_on_support_{n[3]}" for n in REACTION_NAMES]
 
 
-def reactions(w, has_b: bool) -> dict:
-    """Support-on-chain wrenches in the model frame: {"A": {"F", "M"}, "B": ...}."""
-    out = {"A": {"F": [float(x) for x in w[0:3]], "M": [float(x) for x in w[3:6]]}}
+def reactions(w: Wrenches, has_b: bool) -> dict:
+    """Support-on-chain wrenches in the model frame (of one sample): {"A": {"F", "M"}, "B": ...}."""
+    out = {"A": {"F": [float(x) for x in w.force_a], "M": [float(x) for x in w.moment_a]}}
     if has_b:
-        out["B"] = {"F": [float(x) for x in w[6:9]], "M": [float(x) for x in w[9:12]]}
+        out["B"] = {"F": [float(x) for x in w.force_b], "M": [float(x) for x in w.moment_b]}
     return out
 
 
@@ -40,43 +41,43 @@ def joint_geometry(model) -> dict:
     return {"length": ell, "diameter": d_joint}
 
 
-def joint_columns(model, sample: dict, k=slice(None)) -> dict:
+def joint_columns(model, sample: Sample, k=slice(None)) -> dict:
     """Per-joint loads of samples k as columns: axial and shear force, bending and torsional
     moment, curvature and jacket strain (docs/model.md, "Internal loads")."""
     geo = joint_geometry(model)
     out = {}
-    kappa = sample["bend_angle"][k] / geo["length"]
+    kappa = sample.bend_angle[k] / geo["length"]
     for j in range(model.n_bodies):
         n = j + 1
-        out[f"axial{n}_N"] = sample["axial"][k, j]
-        out[f"shear{n}_N"] = sample["shear"][k, j]
-        out[f"bending{n}_Nm"] = sample["bending"][k, j]
-        out[f"torsion{n}_Nm"] = sample["torsion"][k, j]
+        out[f"axial{n}_N"] = sample.axial[k, j]
+        out[f"shear{n}_N"] = sample.shear[k, j]
+        out[f"bending{n}_Nm"] = sample.bending[k, j]
+        out[f"torsion{n}_Nm"] = sample.torsion[k, j]
         out[f"curvature{n}_1pm"] = kappa[..., j]
         out[f"strain{n}"] = 0.5 * geo["diameter"][j] * kappa[..., j]
     # Signed components in the child's body axes (fatigue counts them around the jacket).
     for j in range(model.n_bodies):
         n = j + 1
-        out[f"moment_x{n}_Nm"] = sample["moment_xy"][k, 0, j]
-        out[f"moment_y{n}_Nm"] = sample["moment_xy"][k, 1, j]
-        out[f"kappa_x{n}_1pm"] = sample["bend_xy"][k, 0, j] / geo["length"][j]
-        out[f"kappa_y{n}_1pm"] = sample["bend_xy"][k, 1, j] / geo["length"][j]
+        out[f"moment_x{n}_Nm"] = sample.moment_xy[k, 0, j]
+        out[f"moment_y{n}_Nm"] = sample.moment_xy[k, 1, j]
+        out[f"kappa_x{n}_1pm"] = sample.bend_xy[k, 0, j] / geo["length"][j]
+        out[f"kappa_y{n}_1pm"] = sample.bend_xy[k, 1, j] / geo["length"][j]
     return out
 
 
-def equilibrium_table(model, sample: dict) -> dict:
+def equilibrium_table(model, sample: Sample) -> dict:
     """The thesis's table columns (body, gamma, beta, CM) plus joint loads and joint points."""
     nb = model.n_bodies
-    ang = sample["angles"][:, :, 0]
-    cm = sample["cm"][:, :, 0]
-    joints = sample["joints"][:, :, 0]
+    ang = sample.angles[:, :, 0]
+    cm = sample.cm[:, :, 0]
+    joints = sample.joints[:, :, 0]
     geo = joint_geometry(model)
-    kappa = sample["bend_angle"][0] / geo["length"]
+    kappa = sample.bend_angle[0] / geo["length"]
     return {"body": np.arange(1, nb + 1), "gamma_deg": ang[0] * RAD2DEG, "beta_deg": ang[1] * RAD2DEG,
             "x_m": cm[0], "y_m": cm[1], "z_m": cm[2],
             "joint_x_m": joints[0, :nb], "joint_y_m": joints[1, :nb], "joint_z_m": joints[2, :nb],
-            "axial_N": sample["axial"][0], "shear_N": sample["shear"][0], "bending_Nm": sample["bending"][0],
-            "torsion_Nm": sample["torsion"][0], "curvature_1pm": kappa,
+            "axial_N": sample.axial[0], "shear_N": sample.shear[0], "bending_Nm": sample.bending[0],
+            "torsion_Nm": sample.torsion[0], "curvature_1pm": kappa,
             "strain": 0.5 * geo["diameter"] * kappa}
 
 

@@ -13,6 +13,7 @@ from pydriver.analyses.output_grid import is_segment_start, output_grid
 from pydriver.analyses.record_columns import chunk_columns, column_names, coordinate_columns
 from pydriver.analyses.singularity import ClosestApproach
 from pydriver.analyses.statics import equilibrium, has_pulse
+from pydriver.core import Wrenches
 from pydriver.errors import DeckError, RunError
 from pydriver.output import CSV_MAX_VALUES, TimeseriesWriter
 from pydriver.progress import report
@@ -108,7 +109,7 @@ def dynamic_analysis(model, run_dir=None, restart=None) -> Result:
     summary = base_summary(model, "dynamic", time.perf_counter() - t_wall)
     summary.update(solver=stats, linear_solver=model.linear_solver(),
                    vector_kernels=s["vector_kernels"], max_constraint_violation_m=float(np.max(g_max)) if model.nc else 0.0,
-                   reactions=reactions(w_end, model.nc > 0), t_end_s=float(times[-1]), n_samples=int(len(times)),
+                   reactions=reactions(Wrenches.from_flat(w_end), model.nc > 0), t_end_s=float(times[-1]), n_samples=int(len(times)),
                    energy_drift_rel=float(np.max(np.abs(energy - energy[0])) / max(abs(energy[0]), 1e-300)),
                    energy_J={"kinetic": float(last["E_kin_J"][-1]), "potential": float(last["E_pot_J"][-1])},
                    tip_m=[float(last[c][-1]) for c in ("tip_x", "tip_y", "tip_z")],

@@ -22,6 +22,7 @@ from pydriver.analyses.record_columns import chunk_columns
 from pydriver.analyses.shooting import periodic_start
 from pydriver.analyses.singularity import ClosestApproach
 from pydriver.analyses.statics import equilibrium
+from pydriver.core import Wrenches
 from pydriver.errors import RunError
 from pydriver.output import TimeseriesWriter
 from pydriver.progress import report
@@ -128,7 +129,7 @@ def flight_analysis(model, run_dir=None) -> Result:
                    forward_speed_m_per_s=float(model.deck["drag.forward_speed"]) if "drag" in model.deck.groups
                    else 0.0,
                    max_constraint_violation_m=float(np.max(ts["g_max_m"])) if model.nc else 0.0,
-                   reactions=reactions(w_end, model.nc > 0), peaks=_peaks(model, ts),
+                   reactions=reactions(Wrenches.from_flat(w_end), model.nc > 0), peaks=_peaks(model, ts),
                    n_samples=int(len(t_last)))
     if cardan.active:
         # Over every revolution integrated, not only the last one reported.
@@ -144,7 +145,7 @@ def flight_analysis(model, run_dir=None) -> Result:
         summary["shooting"] = {"newton_iterations": shooting["iterations"],
                                "differences_m": shooting["differences_m"], "steps": shooting["steps"],
                                "revolutions_integrated": shooting["iterations"] + summary["revolutions"]}
-    extra = {"q": q_last.T, "shape_joints": sample["joints"]}
+    extra = {"q": q_last.T, "shape_joints": sample.joints}
     # A start on the periodic orbit at t = 0 and, where one was taken there, its monodromy and the
     # basis of its coordinates (the design sensitivities, pydriver/analyses/flight_sensitivities.py).
     if shooting is not None:

@@ -53,9 +53,9 @@ def modal_analysis(model, run_dir=None) -> Result:
     nf = model.nq - model.nc
     fu, fd, zeta = modes["f_undamped_hz"], modes["f_damped_hz"], modes["zeta"]
     summary = base_summary(model, "modal", wall)
-    summary.update(solver=stats, equilibrium_stability=stability, max_constraint_violation_m=float(sample["g_max"][0]),
-                   reactions=reactions(sample["wrenches"][0], model.nc > 0),
-                   tip_m=[float(x) for x in sample["joints"][:, -1, 0]],
+    summary.update(solver=stats, equilibrium_stability=stability, max_constraint_violation_m=float(sample.g_max[0]),
+                   reactions=reactions(sample.wrenches.at(0), model.nc > 0),
+                   tip_m=[float(x) for x in sample.joints[:, -1, 0]],
                    frequencies_hz=[float(x) for x in fu], damped_frequencies_hz=[float(x) for x in fd],
                    damping_ratios=[float(x) for x in zeta],
                    n_zero_stiffness_modes=int(np.count_nonzero(fu == 0.0)),

@@ -57,23 +57,24 @@ def chunk_columns(model, t, sample, q, v) -> dict:
     cols = {"t": np.asarray(t, float)}
     rot = model.description["rotor"]
     if rot is not None:
-        cols["psi_deg"] = np.mod(sample["psi"] * RAD2DEG, 360.0)
-        cols["azimuth_deg"] = np.mod((sample["psi"] + rot["azimuth0"]) * RAD2DEG, 360.0)
+        cols["psi_deg"] = np.mod(sample.psi * RAD2DEG, 360.0)
+        cols["azimuth_deg"] = np.mod((sample.psi + rot["azimuth0"]) * RAD2DEG, 360.0)
     for j in range(nb):
         for c, name in enumerate("xyz"):
-            cols[f"{name}{j + 1}"] = sample["cm"][c, j]
+            cols[f"{name}{j + 1}"] = sample.cm[c, j]
     for j in range(nb):
-        cols[f"gamma{j + 1}_deg"] = sample["angles"][0, j] * RAD2DEG
-        cols[f"beta{j + 1}_deg"] = sample["angles"][1, j] * RAD2DEG
+        cols[f"gamma{j + 1}_deg"] = sample.angles[0, j] * RAD2DEG
+        cols[f"beta{j + 1}_deg"] = sample.angles[1, j] * RAD2DEG
+    wrenches = sample.wrenches.as_flat()       # in the order of REACTION_NAMES
     for i, name in enumerate(REACTION_NAMES[:12 if model.nc > 0 else 6]):
-        cols[name] = sample["wrenches"][:, i]
+        cols[name] = wrenches[:, i]
     for i, name in enumerate(SUPPORT_LOAD_NAMES[:12 if model.nc > 0 else 6]):
-        cols[name] = -sample["wrenches"][:, i]
+        cols[name] = -wrenches[:, i]
     for c, name in enumerate(("tip_x", "tip_y", "tip_z")):
-        cols[name] = sample["joints"][c, -1]
-    cols["E_kin_J"] = sample["kinetic"]
-    cols["E_pot_J"] = sample["potential"]
-    cols["g_max_m"] = sample["g_max"]
+        cols[name] = sample.joints[c, -1]
+    cols["E_kin_J"] = sample.kinetic
+    cols["E_pot_J"] = sample.potential
+    cols["g_max_m"] = sample.g_max
     cols.update(joint_columns(model, sample))
     coords = coordinate_columns(model)
     for name, _, i in coords:

@@ -199,11 +199,11 @@ def static_outputs(model, q) -> tuple[np.ndarray, list, list]:
     """The outputs of a static run at the state q: reactions and joint loads (values, names, units)."""
     sample = model.core.sample([0.0], q[:, None], np.zeros((model.nq, 1)))
     n_wrench = 12 if model.nc > 0 else 6
-    values = [sample["wrenches"][0][:n_wrench]]
+    values = [sample.wrenches.as_flat()[0][:n_wrench]]
     names = list(REACTION_NAMES[:n_wrench])
     units = ["N", "N", "N", "Nm", "Nm", "Nm"] * (n_wrench // 6)
     for load, unit in JOINT_LOADS:
-        values.append(sample[load][0])
+        values.append(getattr(sample, load)[0])
         names += [f"{load}{j + 1}_{unit}" for j in range(model.n_bodies)]
         units += [unit] * model.n_bodies
     return np.concatenate(values), names, units

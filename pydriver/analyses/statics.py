@@ -98,7 +98,7 @@ def _solve(model, t: float):
         raise RunError(f"deck '{model.name}': dynamic settling: not at rest at t_end (max |qdot| = {vmax:.3e} "
                        "rad/s > settle_tol); increase t_end")
     sample = model.core.sample([t + s["t_end"]], q, np.zeros_like(q))
-    return q[:, 0], sample["lambda"][0], stats
+    return q[:, 0], sample.lam[0], stats
 
 
 def static_analysis(model, run_dir=None) -> Result:
@@ -114,10 +114,10 @@ def static_analysis(model, run_dir=None) -> Result:
     wall = time.perf_counter() - t0
     summary = base_summary(model, "static", wall)
     summary.update(solver=stats, equilibrium_stability=stability,
-                   max_constraint_violation_m=float(sample["g_max"][0]),
-                   reactions=reactions(sample["wrenches"][0], model.nc > 0),
-                   tip_m=[float(x) for x in sample["joints"][:, -1, 0]],
-                   energy_J={"kinetic": 0.0, "potential": float(sample["potential"][0])})
+                   max_constraint_violation_m=float(sample.g_max[0]),
+                   reactions=reactions(sample.wrenches.at(0), model.nc > 0),
+                   tip_m=[float(x) for x in sample.joints[:, -1, 0]],
+                   energy_J={"kinetic": 0.0, "potential": float(sample.potential[0])})
     table = equilibrium_table(model, sample)
     near, near_warnings = equilibrium_report(model, q)
     if near is not None:
