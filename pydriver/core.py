@@ -62,7 +62,15 @@ def _trapped_if_asked(module):
 
 _api = _trapped_if_asked(_rotorcable.rotorcable_api)
 
-JOINT_KINDS = {"zy": 1, "xy": 2, "xyz": 3}
+
+class JointKind(enum.IntEnum):
+    """The chain's joint kind (``&chain joint``: its name in lower case) as the core's integer
+    code (src_fortran/api.f90, rc_model_new's ``joint_kind``: 1 thesis zy, 2 Cardan xy, 3
+    Cardan xyz)."""
+
+    ZY = 1
+    XY = 2
+    XYZ = 3
 
 
 def _text(x) -> str:
@@ -244,7 +252,7 @@ class CoreModel:
         self.deck = deck
         self.handle = None
         handle, stat, key, msg = _api.rc_model_new(
-            _reals(lengths), _reals(radii), _reals(masses), JOINT_KINDS[joint], _ints(locked),
+            _reals(lengths), _reals(radii), _reals(masses), JointKind[joint.upper()], _ints(locked),
             np.asfortranarray(np.asarray(locked_angles, float).reshape(2, -1)))
         self.handle = int(handle)
         _raise(deck, stat, key, msg)
