@@ -22,6 +22,7 @@ from pydriver.core import (
     INTEGRATION_STATS,
     CoreModel,
     PartialKind,
+    Wrenches,
     _parameter_arrays,
     _raise,
     _reals,
@@ -60,7 +61,7 @@ def evaluate(core: CoreModel, q, v, vdot, lam, t: float = 0.0) -> dict:
         ``M`` (composite-rigid-body), ``M_jourdain`` (thesis eq. 4.87), ``k``, ``residual``
         (M vdot - k - G^T lambda by inverse dynamics), ``g``, ``G``, ``Gdot_v`` (the acceleration
         bias, rheonomic terms included), ``G_v`` (G v + g_t), ``vdot``/``lambda`` of eq. 3.55,
-        ``wrenches`` (F_A, M_A, F_B, M_B) and ``energy``.
+        ``wrenches`` (:class:`pydriver.core.Wrenches`) and ``energy``.
     """
     lam_in = np.zeros(max(core.nc, 1))
     lam_in[:core.nc] = lam
@@ -69,7 +70,7 @@ def evaluate(core: CoreModel, q, v, vdot, lam, t: float = 0.0) -> dict:
     _raise(core.deck, stat, "", msg)
     nc = core.nc
     return {"M": m, "M_jourdain": mj, "k": k, "residual": res, "g": g[:nc], "G": gj[:nc],
-            "Gdot_v": gb[:nc], "G_v": gv[:nc], "vdot": vd, "lambda": la[:nc], "wrenches": wr,
+            "Gdot_v": gb[:nc], "G_v": gv[:nc], "vdot": vd, "lambda": la[:nc], "wrenches": Wrenches.from_flat(wr),
             "energy": float(en)}
 
 

@@ -121,7 +121,8 @@ def test_multipliers_and_reactions_against_reference(closed_chain, open_chain):
         w = e["wrenches"]
         scale = 75.0
         assert np.max(np.abs(e["vdot"] - r["qdd"])) / max(np.max(np.abs(r["qdd"])), 1.0) < 1e-9
-        for got, want in ((w[0:3], r["F_A"]), (w[3:6], r["M_A"]), (w[6:9], r["F_B"]), (w[9:12], r["M_B"])):
+        for got, want in ((w.force_a, r["F_A"]), (w.moment_a, r["M_A"]), (w.force_b, r["F_B"]),
+                          (w.moment_b, r["M_B"])):
             assert np.max(np.abs(got - want)) < 1e-10 * scale
     # Open chain: the pivot reaction at A.
     path, model = open_chain
@@ -130,7 +131,7 @@ def test_multipliers_and_reactions_against_reference(closed_chain, open_chain):
     e = probes.evaluate_model(path, q, v)
     r = ref.forward_dynamics(model, q, v)
     assert rel_err(e["vdot"], r["qdd"]) < 1e-10
-    assert np.max(np.abs(e["wrenches"][0:3] - r["F_A"])) < 1e-10 * 1.5
+    assert np.max(np.abs(e["wrenches"].force_a - r["F_A"])) < 1e-10 * 1.5
 
 
 def test_constraint_jacobian_finite_difference(closed_chain):
