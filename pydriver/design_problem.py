@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pydriver.analyses.registry import analysis_of
+from pydriver.analyses.registry import ANALYSES, analysis_of
 from pydriver.deckfile import Deck
 from pydriver.design import Parameter, parameters
 from pydriver.design_measures import OBJECTIVES, Measure
@@ -128,10 +128,10 @@ def problem(deck: Deck) -> Problem | None:
         if "spectrum" not in deck.groups:
             _fail(deck, "objective", f"'{objective.name}' needs the deck's usage spectrum: add &spectrum (regimes, "
                                      "share, flights_per_hour; docs/model.md, \"Usage spectrum\")")
-        # The spectrum's own rules (its regimes' decks are made and checked when the design runs,
-        # as a spectrum run makes them: pydriver.analyses.spectrum_design.parameter_roles).
-        from pydriver.usage_spectrum import check as check_spectrum
-        check_spectrum(deck)
+        # The spectrum's own rules, through its registry row as a spectrum run applies them (its
+        # regimes' decks are made and checked when the design runs, as a spectrum run makes them:
+        # pydriver.analyses.spectrum_design.parameter_roles).
+        ANALYSES["spectrum"].check_deck(deck)
     levels = int(deck["design.frequency_levels"])
     if levels > 1 and "cable" not in deck.groups:
         _fail(deck, "frequency_levels", f"= {levels} refines the frequencies over n, 2n ...: that needs the "

@@ -21,7 +21,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from pydriver.analyses.floquet_subspace import FLOOR_SHARE
+#: Multipliers below FLOOR_SHARE rtol |rho|_max are round-off (the whole monodromy's and the
+#: subspace's, pydriver.analyses.floquet_subspace): the columns' integration errors,
+#: of the order of rtol times the least damped mode's share of an image, turn the round-off
+#: multipliers (|rho| ~ 1e-17 in the whole monodromy) into spurious ones.  Measured on the main
+#: job at n = 11: the largest spurious multiplier was 0.012 rtol |rho|_max at rtol = 1e-6 and
+#: 0.017 rtol |rho|_max at 1e-8, while the physical 1.7e-7 agreed between the two rtol to
+#: 2.4e-4 relative (and with the whole monodromy's eigenvalue to 1e-3): 0.1 keeps a factor 6
+#: above the noise and resolves the 1.7e-7 (15 x the floor at rtol = 1e-6).
+FLOOR_SHARE = 0.1
 
 
 def _candidates(f0: float, period: float, top: float) -> np.ndarray:
@@ -70,7 +78,7 @@ def floquet_modes(phi: np.ndarray, period: float, hover_hz=(), hover_zeta=None,
     # a column, not of ||Phi||_2 (which x's mixed units, rad and rad/s, inflate): the old floor
     # 10 rtol ||Phi||_2 = 1.2e-4 of the main job at n = 11 discarded its 40 and 49 Hz modes
     # (1.5e-5, 1.7e-7), which agree with a subspace at tight column tolerances to 4.5e-4 and
-    # 1.2e-3 (the other eigenvalues of Phi are below 1.5e-16); floquet_subspace.FLOOR_SHARE.
+    # 1.2e-3 (the other eigenvalues of Phi are below 1.5e-16); FLOOR_SHARE above.
     floor = FLOOR_SHARE * resolution * float(np.max(np.abs(rho), initial=0.0))
     return modes_of_multipliers(rho, period, hover_hz, hover_zeta, np.abs(rho) >= floor)
 

@@ -31,6 +31,8 @@ import time
 
 import numpy as np
 
+from pydriver.analyses.floquet import FLOOR_SHARE, floquet_summary, modes_of_multipliers
+
 #: A Ritz pair is converged when ||Phi v - rho v|| <= RESIDUAL_SHARE |rho| (v of unit length):
 #: for a simple, well separated multiplier the eigenvalue error is of the order of the
 #: residual's square over the separation (Parlett, The Symmetric Eigenvalue Problem, sec. 11-7,
@@ -46,14 +48,6 @@ MAX_BLOCKS = 4
 #: (the state keeps its own atol).  Measured on the main job at n = 11: 1e-6 instead changed the
 #: 1.7e-7 multiplier by 1.5e-4 relative and took 15 % more steps.
 COLUMN_ATOL_SHARE = 1.0e-3
-#: Multipliers below FLOOR_SHARE rtol |rho|_max are round-off: the columns' integration errors,
-#: of the order of rtol times the least damped mode's share of an image, turn the round-off
-#: multipliers (|rho| ~ 1e-17 in the whole monodromy) into spurious ones.  Measured on the main
-#: job at n = 11: the largest spurious multiplier was 0.012 rtol |rho|_max at rtol = 1e-6 and
-#: 0.017 rtol |rho|_max at 1e-8, while the physical 1.7e-7 agreed between the two rtol to
-#: 2.4e-4 relative (and with the whole monodromy's eigenvalue to 1e-3): 0.1 keeps a factor 6
-#: above the noise and resolves the 1.7e-7 (15 x the floor at rtol = 1e-6).
-FLOOR_SHARE = 0.1
 #: Images of a new block below this share of the largest image are round-off, not a direction.
 NEW_DIRECTION_SHARE = 1.0e-12
 #: Hover modes in the start block beyond those whose hover multiplier is above the floor: a
@@ -205,7 +199,6 @@ def add_floquet_subspace(model, result) -> None:
     number of bodies, the method and its largest relative Ritz residual) and ``floquet.csv``
     (with a column ``n_bodies``); its integration steps and wall time are in the summary.  Needs
     the hover modes of the result (:func:`pydriver.analyses.hover_modes.add_hover_modes`)."""
-    from pydriver.analyses.floquet import floquet_summary, modes_of_multipliers
     orbit, s = result.extra["orbit"], result.summary
     period = float(orbit["period_s"])
     hover = {k: s[k] for k in ("frequencies_hz", "damped_frequencies_hz", "damping_ratios")}
