@@ -197,6 +197,17 @@ def _blade(deck: Deck):
         for key in ("table_flap_deg", "table_lag_deg", "table_pitch_deg"):
             if deck[f"blade.{key}"] is not None and len(deck[f"blade.{key}"]) != len(t):
                 deck.fail("blade", key, f"needs {len(t)} values (one per table time)")
+        # After its last time a table's angle is held, so a table that still moves there (its
+        # spline's end slope) jumps the blade's angle rate to 0: a velocity jump of clamp B that the
+        # clamped cable cannot follow (IDA fails at that time).  A run that ends within the table
+        # never meets it; a constant table has no end slope.
+        moves = any(deck[f"blade.{key}"] is not None and np.ptp(deck[f"blade.{key}"]) > 0.0
+                    for key in ("table_flap_deg", "table_lag_deg", "table_pitch_deg"))
+        if moves and analysis_of(deck).time_axis == "t_end" and deck["solver.t_end"] > t[-1]:
+            deck.fail("blade", "table_t", f"the angle table ends at {t[-1]:g} s, before &solver t_end = "
+                                          f"{deck['solver.t_end']:g} s, while the blade still moves: the held angle "
+                                          "after the table would jump the blade's angle rate to 0, which the clamped "
+                                          "cable cannot follow; extend the table to t_end (or end the run within it)")
     elif analysis_of(deck).periodic and deck["blade.lag_extra_deg"] != 0.0:
         deck.fail("blade", "lag_extra_deg", "an oscillation at its own frequency makes the motion non-periodic "
                                             "in the azimuth: a flight run cannot reach a periodic steady "

@@ -270,7 +270,9 @@ SCOPES: tuple[Scope, ...] = (
           condition="with &blade motion = 'fourier'"),
     Scope(("blade.table_flap_deg", "blade.table_lag_deg", "blade.table_pitch_deg"), when=_blade("table"),
           condition="with &blade motion = 'table'"),
-    Scope(("blade.table_t",), ("dynamic",), _blade("table"), "with &blade motion = 'table'"),
+    # The times set the angles' rates: at t = 0 the blade's rate, which the reactions of a static
+    # or modal run include (as a Fourier motion's), and the motion of a dynamic run.
+    Scope(("blade.table_t",), ("static", "modal", "dynamic"), _blade("table"), "with &blade motion = 'table'"),
     Scope(("blade.lag_extra_deg",), when=_extra_lag,
           condition="with &blade motion = 'fourier', in a dynamic run or, taken at t = 0, with a frequency "
                     "lag_extra_hz or a phase lag_extra_phase_deg whose sine is not 0"),

@@ -60,6 +60,10 @@ def write_generated(argv: list, name: str, content: str, first_line: str) -> int
     int
         The exit status: 0 written (or printed), 1 refused or not writable (said on stderr).
     """
+    if argv and argv[0].startswith("-"):      # an option, not a path: say how it is used
+        print(f"usage: python -m pydriver.<generator> [PATH]: write docs/{name} (or PATH; installed: "
+              "print it)", file=sys.stderr if argv[0] not in ("-h", "--help") else sys.stdout)
+        return 0 if argv[0] in ("-h", "--help") else 1
     if not argv:
         target = source_checkout_file(name)
         if target is None:

@@ -146,7 +146,7 @@ contains
         add = add - f%extra_amplitude*w**2*sin(w*t + f%extra_phase)
       end if
     case (ANGLE_TABLE)
-      call spline_eval(f%table, t, a, ad, add)
+      call spline_eval(f%table, t, a, ad, add, ends_on_spline=.true.)
     case (ANGLE_ROTOR)
       a = rs%psi + f%mean
       ad = rs%omega

@@ -46,14 +46,24 @@ contains
     s%y_first = y(1); s%y_last = y(size(y))
   end subroutine spline_init
 
-  !> Value and first two derivatives at x (held constant outside the table).
-  subroutine spline_eval(s, x, f, df, ddf)
+  !> Value and first two derivatives at x (held constant outside the table).  With
+  !> ``ends_on_spline`` the table's first and last times belong to the spline (its slope there),
+  !> without it to the held values (rate 0).  A blade angle table needs the former: a dynamic run
+  !> starts at the first time, and clamp B's velocity there must be the one the spline takes just
+  !> after it, or the start is inconsistent and IDA fails at t = 0.
+  subroutine spline_eval(s, x, f, df, ddf, ends_on_spline)
     type(table_spline), intent(in) :: s       !< spline
     real(dp), intent(in) :: x                 !< abscissa
     real(dp), intent(out) :: f, df, ddf       !< value, first and second derivative
+    logical, intent(in), optional :: ends_on_spline  !< the ends take the spline's rates
     real(c_double) :: y
     integer(c_int) :: flag
-    if (x <= s%x_first .or. x >= s%x_last) then
+    logical :: held
+    held = x <= s%x_first .or. x >= s%x_last
+    if (present(ends_on_spline)) then
+      if (ends_on_spline) held = x < s%x_first .or. x > s%x_last
+    end if
+    if (held) then
       f = merge(s%y_first, s%y_last, x <= s%x_first)
       df = 0.0_dp; ddf = 0.0_dp
       return
