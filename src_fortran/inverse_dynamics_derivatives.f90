@@ -194,7 +194,7 @@ contains
     type(derivatives_work), intent(inout) :: work
     real(dp), intent(in), optional :: frame_omega(3), frame_omega_dot(3)
     real(dp) :: a_c(6, 6), b_c(6, 6), q_c(6, 6), lm(6, 6), lp(6, 6), ib(3, 3), wi(3, 3), cm(3), v(3), w(3), f_e(3)
-    real(dp) :: n_e(3), dn(3), lp_dn(3, 3), lm_dn(3, 3), x(3)
+    real(dp) :: n_e(3), dn(3), lp_dn(3, 3), lm_dn(3, 3), x(3), r_row(3), s_row(3)
     integer :: j, i, n
     n = chain%n_bodies
     do j = n, 1, -1
@@ -227,7 +227,9 @@ contains
       q_c = lp
       do i = 1, 6
         ! Row i of L_m(:, 1:3) [v] + L_m(:, 4:6) [w]: r x v + s x w for its rows r, s.
-        x = cross(lm(i, 1:3), v) + cross(lm(i, 4:6), w)
+        r_row = lm(i, 1:3)      ! rows copied: a row section is strided, cross() would take a temporary
+        s_row = lm(i, 4:6)
+        x = cross(r_row, v) + cross(s_row, w)
         q_c(i, 4:6) = q_c(i, 4:6) - x
       end do
       q_c(1:3, 4:6) = q_c(1:3, 4:6) + skew(f_e)
