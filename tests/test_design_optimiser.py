@@ -264,6 +264,7 @@ def hover_fd1(model: Model) -> float:
     return float(modal_analysis(hover_model(model)).summary["damped_frequencies_hz"][0])
 
 
+@pytest.mark.whole_job
 def test_flight_damage_optimum_sits_on_the_frequency_edge():
     # The main job's cable (uh60_part2_design_flight.nml), the length alone in [0.5605, 0.6195] m,
     # objective the largest damage per flight hour under a 10 % margin from 1/rev ... 8/rev at

@@ -20,6 +20,9 @@ from pydriver.model import Model
 
 DECK = INPUTS / "uh60_part2_design_flight.nml"
 
+#: The shipped design deck's multi-start optimisation, refined: release build only (tests/conftest.py).
+pytestmark = pytest.mark.whole_job
+
 
 @pytest.fixture(scope="module")
 def design():

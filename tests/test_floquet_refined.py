@@ -104,6 +104,7 @@ def test_the_40_hz_mode_is_resolved_with_the_hover_damping(main_job_n11):
     assert int(np.sum(whole["resolved"])) == 3                   # the 16, 40 and 49 Hz modes
 
 
+@pytest.mark.whole_job
 def test_the_main_job_verdict_prints_the_refined_damping_ratio():
     """At two levels (n = 11, 22; three would add the n = 44 level for ~30 s): every level has its
     Floquet verdict, the least damped mode's damping ratio, frequency and |multiplier| are refined

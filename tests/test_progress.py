@@ -27,6 +27,7 @@ def _run(deck, out, *flags):
                           capture_output=True, text=True, timeout=600)
 
 
+@pytest.mark.whole_job
 def test_verbose_names_levels_and_revolutions(short_flight, tmp_path):
     done = _run(short_flight, tmp_path / "v", "-v")
     assert done.returncode == 0, done.stderr
@@ -40,6 +41,7 @@ def test_verbose_names_levels_and_revolutions(short_flight, tmp_path):
         assert any(stage in ln for ln in lines), stage
 
 
+@pytest.mark.whole_job
 def test_default_is_silent_off_a_terminal_and_quiet_is_silent(short_flight, tmp_path):
     for flags in ((), ("-q",)):
         done = _run(short_flight, tmp_path / f"o{len(flags)}", *flags)
@@ -54,6 +56,7 @@ def test_a_failure_names_its_refinement_level(tmp_path):
     assert str(exc.value).startswith("refinement level 2 of 2 (n = 22): deck 'ff.nml'")
 
 
+@pytest.mark.whole_job
 def test_the_job_time_is_the_sum_of_its_levels(short_flight):
     s = pydriver.run_deck(short_flight).summary
     assert len(s["wall_time_levels_s"]) == 2
