@@ -187,12 +187,18 @@ def residual_tangent(core: CoreModel, y, yd, dy, dyd, t: float = 0.0) -> np.ndar
     return dr
 
 
-def residual_tangent_columns(core: CoreModel, y, yd, dy, dyd, t: float = 0.0) -> np.ndarray:
-    """:func:`residual_tangent` of every column of dy, dyd (n, m) at once: the path of the
-    sensitivity residual (the chain's tangents over blocks of columns)."""
+COLUMN_ROUTES = {"chosen": 0, "sweeps": 1, "matrices": 2}
+
+
+def residual_tangent_columns(core: CoreModel, y, yd, dy, dyd, t: float = 0.0, route: str = "sweeps") -> np.ndarray:
+    """:func:`residual_tangent` of every column of dy, dyd (n, m) at once.  ``route``: "sweeps"
+    (the chain's tangents over blocks of columns, bit for bit the single sweeps), "matrices" (the
+    whole derivative matrices times the columns) or "chosen" (the sensitivity residuals' path:
+    whichever of the two is cheaper for m columns)."""
     dr, stat, msg = _probes.rc_probe_residual_tangent_columns(core.handle, float(t), _reals(y), _reals(yd),
                                                               np.asfortranarray(dy, float),
-                                                              np.asfortranarray(dyd, float))
+                                                              np.asfortranarray(dyd, float),
+                                                              COLUMN_ROUTES[route])
     _raise(core.deck, stat, "", msg)
     return dr
 

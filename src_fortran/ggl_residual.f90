@@ -18,10 +18,22 @@ module rotorcable_ggl_residual
                                     IDAGetNumNonlinSolvConvFails
   use rotorcable_ggl_linear_solver, only: ggl_block_solver
   use rotorcable_model_derivatives, only: eom_derivatives, constraint_derivatives
+  use rotorcable_linalg, only: dgemm
   implicit none
   private
   public :: ida_user_data, ggl_residual, ggl_residual_dense, ggl_residual_tangent, ggl_residual_tangent_columns, &
-            ggl_jacobian, ggl_jacobian_dense, physics_jacobian
+            ggl_residual_columns, ggl_residual_matrix_columns, ggl_jacobian, ggl_jacobian_dense, physics_jacobian
+
+  !> ggl_residual_columns takes the whole matrices (one derivative pass, then BLAS products)
+  !> instead of a tangent sweep per column when there are at least as many columns as
+  !> coordinates, and at least MATRIX_COLUMNS_MIN, on at most MATRIX_COLUMNS_MAX_NQ coordinates.
+  !> The pass costs about as much as 15-20 sweeps and the products O(nq^2) a column against a
+  !> sweep's O(nq), so the matrices pay only for many columns on short chains.  Measured per
+  !> call (benchmarks/residual_columns.py, its table in benchmarks/README.md), sweeps/matrices:
+  !> nq = 20: 0.79 at 12 columns, 1.38 at 20, 1.50 at 40; nq = 42: 0.75 at 20, 1.09 at 40;
+  !> nq = 86: 0.47 at 20, 0.62 at 40.  Either route gives the same numbers to round-off.
+  integer, parameter :: MATRIX_COLUMNS_MIN = 16
+  integer, parameter :: MATRIX_COLUMNS_MAX_NQ = 64
 
   !> User data handed to IDA (c_loc), turned back with c_f_pointer in the callbacks.
   type :: ida_user_data
@@ -322,6 +334,78 @@ contains
       end do
     end associate
   end subroutine ggl_residual_tangent_columns
+
+  !> The changes F_y dy + F_y' dyd of the GGL residual for m directions, by the route that is
+  !> cheaper for m columns on this chain (MATRIX_COLUMNS_MIN): the whole derivative matrices
+  !> (ggl_residual_matrix_columns) or the tangent sweeps (ggl_residual_tangent_columns).  The
+  !> two agree to round-off (tests/test_residual_columns.py, 1e-12 relative).  The sensitivity
+  !> residuals (monodromy, parameter sensitivities) take their columns here.
+  subroutine ggl_residual_columns(model, t, y, yd, dy, dyd, dr, held)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: y(:), yd(:)       !< unknowns and their derivatives
+    real(dp), intent(in) :: dy(:, :), dyd(:, :)  !< (n, m) their changes
+    real(dp), intent(out) :: dr(:, :)         !< (n, m) changes of the residual
+    logical, intent(in), optional :: held     !< the caller has just evaluated the base point
+    if (size(dy, 2) >= max(MATRIX_COLUMNS_MIN, model%nq) .and. model%nq <= MATRIX_COLUMNS_MAX_NQ) then
+      call ggl_residual_matrix_columns(model, t, y, yd, dy, dyd, dr, held)
+    else
+      call ggl_residual_tangent_columns(model, t, y, yd, dy, dyd, dr, held)
+    end if
+  end subroutine ggl_residual_columns
+
+  !> ggl_residual_tangent_columns by the whole matrices of the Jacobian's structure
+  !> (ggl_jacobian_dense's comment), rows by rows:
+  !>   q rows:   dq' - dv + d(G^T mu)/dq dq + G^T dmu
+  !>   v rows:   d(res)/dq dq + d(res)/dv dv + M dv' - G^T dlambda     (eq. 3.50's residual)
+  !>   g rows:   G dq
+  !>   Gv rows:  d(G v + g_t)/dq dq + G dv
+  !> The matrices come from one derivative pass (eom_derivatives, constraint_derivatives:
+  !> Carpentier & Mansard 2018's structure), the products from BLAS dgemm on copies of the
+  !> directions' row blocks (contiguous operands, no array temporaries).
+  subroutine ggl_residual_matrix_columns(model, t, y, yd, dy, dyd, dr, held)
+    type(model_type), intent(inout) :: model  !< model
+    real(dp), intent(in) :: t                 !< time [s]
+    real(dp), intent(in) :: y(:), yd(:)       !< unknowns and their derivatives
+    real(dp), intent(in) :: dy(:, :), dyd(:, :)  !< (n, m) their changes
+    real(dp), intent(out) :: dr(:, :)         !< (n, m) changes of the residual
+    logical, intent(in), optional :: held     !< the caller has just evaluated the base point
+    real(dp), allocatable :: res_q(:, :), res_v(:, :), mass(:, :), gtmu_q(:, :)
+    real(dp), allocatable :: g(:, :), gv_q(:, :), gv_v(:, :)
+    real(dp), allocatable :: dq(:, :), dv(:, :), dvd(:, :), dmult(:, :), prod(:, :), rows(:, :)
+    integer :: nq, nc, n, m
+    nq = model%nq; nc = model%nc; n = 2*nq + 2*nc; m = size(dy, 2)
+    allocate (res_q(nq, nq), res_v(nq, nq), mass(nq, nq))
+    call eom_derivatives(model, t, y(1:nq), y(nq + 1:2*nq), yd(nq + 1:2*nq), y(2*nq + 1:2*nq + nc), res_q, res_v, &
+                         mass, held)
+    dq = dy(1:nq, :); dv = dy(nq + 1:2*nq, :); dvd = dyd(nq + 1:2*nq, :)
+    allocate (prod(nq, m))
+    ! v rows
+    call dgemm('N', 'N', nq, m, nq, 1.0_dp, res_q, nq, dq, nq, 0.0_dp, prod, nq)
+    call dgemm('N', 'N', nq, m, nq, 1.0_dp, res_v, nq, dv, nq, 1.0_dp, prod, nq)
+    call dgemm('N', 'N', nq, m, nq, 1.0_dp, mass, nq, dvd, nq, 1.0_dp, prod, nq)
+    if (nc > 0) then
+      allocate (gtmu_q(nq, nq), g(nc, nq), gv_q(nc, nq), gv_v(nc, nq), rows(nc, m))
+      call constraint_derivatives(model, y(2*nq + nc + 1:n), gtmu_q, g, gv_q, gv_v)
+      dmult = dy(2*nq + 1:2*nq + nc, :)                       ! dlambda
+      call dgemm('T', 'N', nq, m, nc, -1.0_dp, g, nc, dmult, nc, 1.0_dp, prod, nq)
+      dr(nq + 1:2*nq, :) = prod
+      ! q rows
+      dmult = dy(2*nq + nc + 1:n, :)                          ! dmu
+      call dgemm('N', 'N', nq, m, nq, 1.0_dp, gtmu_q, nq, dq, nq, 0.0_dp, prod, nq)
+      call dgemm('T', 'N', nq, m, nc, 1.0_dp, g, nc, dmult, nc, 1.0_dp, prod, nq)
+      dr(1:nq, :) = dyd(1:nq, :) - dv + prod
+      ! g rows, then G v rows
+      call dgemm('N', 'N', nc, m, nq, 1.0_dp, g, nc, dq, nq, 0.0_dp, rows, nc)
+      dr(2*nq + 1:2*nq + nc, :) = rows
+      call dgemm('N', 'N', nc, m, nq, 1.0_dp, gv_q, nc, dq, nq, 0.0_dp, rows, nc)
+      call dgemm('N', 'N', nc, m, nq, 1.0_dp, gv_v, nc, dv, nq, 1.0_dp, rows, nc)
+      dr(2*nq + nc + 1:n, :) = rows
+    else
+      dr(nq + 1:2*nq, :) = prod
+      dr(1:nq, :) = dyd(1:nq, :) - dv
+    end if
+  end subroutine ggl_residual_matrix_columns
 
   !> The physics columns by central differences of the residual at fixed y' (the check of the
   !> analytic columns, so accuracy before cost: truncation ~h^2, round-off ~eps/h, balanced at

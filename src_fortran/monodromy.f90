@@ -7,7 +7,8 @@
 !> y = (q, v, lambda, mu).  The state and the 2 nf sensitivities are integrated as one DAE by
 !> SUNDIALS IDA (tangent integration): Y = (y, s_1 ... s_ns), residual (F(t, y, y'),
 !> F_y s_k + F_y' s_k'), the latter the analytic tangent sweep of the GGL residual
-!> (ggl_residual_tangent, O(n) per column).
+!> (ggl_residual_tangent, O(n) per column) or, for many columns on a short chain, the whole
+!> derivative matrices times the columns (ggl_residual_columns).
 !>
 !> Why not IDAS's forward sensitivities (IDASensInit, which this module used before): IDAS
 !> chooses the BDF order on the state's error estimates alone.  IDATestError (idas.c, SUNDIALS
@@ -35,7 +36,7 @@ module rotorcable_monodromy
   use rotorcable_errors, only: error_type, fatal_error, sundials_flag_error
   use rotorcable_model, only: model_type, solve_accelerations, constraint_jacobian, switch_times
   use rotorcable_linalg, only: null_space, solve_least_norm, dgetrf, lu_solve
-  use rotorcable_ggl_residual, only: ggl_residual_dense, ggl_residual_tangent, ggl_residual_tangent_columns, &
+  use rotorcable_ggl_residual, only: ggl_residual_dense, ggl_residual_tangent, ggl_residual_columns, &
                                      ggl_jacobian_dense
   use rotorcable_ida_binding, only: SUNContext_Create, SUNContext_Free, N_VNew_Serial, N_VDestroy, &
                                     N_VGetArrayPointer, IDACreate, IDAInit, IDASVtolerances, IDASetUserData, &
@@ -316,12 +317,12 @@ contains
     call c_f_pointer(N_VGetArrayPointer(rr), r, [big])
     ! The state's residual first: the tangents reuse its kinematics, loads and wrenches.
     call ggl_residual_dense(td%model, t, y(1:n), yd(1:n), r(1:n))
-    ! All the columns at the point just evaluated (held), together (ggl_residual_tangent_columns:
-    ! the same bits as column by column).
+    ! All the columns at the point just evaluated (held), together, by the cheaper route for
+    ! this many columns (ggl_residual_columns: tangent sweeps or the whole derivative matrices).
     ys(1:n, 1:td%ns) => y(n + 1:big)
     yds(1:n, 1:td%ns) => yd(n + 1:big)
     rs(1:n, 1:td%ns) => r(n + 1:big)
-    call ggl_residual_tangent_columns(td%model, t, y(1:n), yd(1:n), ys, yds, rs, held=.true.)
+    call ggl_residual_columns(td%model, t, y(1:n), yd(1:n), ys, yds, rs, held=.true.)
     ! The iterate of this residual is where a factorisation that follows is taken.
     td%t = t; td%y = y(1:n); td%yd = yd(1:n)
     td%s = reshape(y(n + 1:big), [n, td%ns]); td%sd = reshape(yd(n + 1:big), [n, td%ns])
@@ -392,7 +393,7 @@ contains
       allocate (yp(n), ydp(n), r0(n), rk(n, td%ns))
       yp = td%y + eps*dy; ydp = td%yd + eps*cj*dy
       call ggl_residual_dense(td%model, td%t, yp, ydp, r0)
-      call ggl_residual_tangent_columns(td%model, td%t, yp, ydp, td%s, td%sd, rk, held=.true.)
+      call ggl_residual_columns(td%model, td%t, yp, ydp, td%s, td%sd, rk, held=.true.)
       do k = 1, td%ns
         xv(k*n + 1:(k + 1)*n) = xv(k*n + 1:(k + 1)*n) - (rk(:, k) - td%rs(:, k))/eps
       end do

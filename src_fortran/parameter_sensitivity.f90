@@ -28,7 +28,7 @@ module rotorcable_parameter_sensitivity
   use rotorcable_model, only: model_type, solve_accelerations, constraint_jacobian, add_load_forces, &
                               applied_generalized_forces, other_bodies_residual
   use rotorcable_linalg, only: solve_least_norm
-  use rotorcable_ggl_residual, only: ida_user_data, ggl_residual_dense, ggl_residual_tangent, ggl_residual_tangent_columns
+  use rotorcable_ggl_residual, only: ida_user_data, ggl_residual_dense, ggl_residual_tangent, ggl_residual_columns
   use rotorcable_ida_binding, only: N_VNew_Serial, N_VDestroy, N_VGetArrayPointer, IDASensInit, &
                                     IDASensSVtolerances, IDASetSensErrCon, IDAGetSens, IDASensFree, &
                                     IDAGetSensNumResEvals, IDA_STAGGERED, IDASetInitStep, IDASensReInit, IDAReInit
@@ -480,15 +480,15 @@ contains
       end do
       points%t_at = t; points%y_at = y; points%yd_at = yd; points%cached = .true.
     end if
-    ! The tangents of all the columns at once (ggl_residual_tangent_columns: the same bits as
-    ! column by column).
+    ! The tangents of all the columns at once, by the cheaper route for this many columns
+    ! (ggl_residual_columns).
     do k = 1, ns
       call c_f_pointer(N_VGetArrayPointer(ps(k)), s, [n])
       call c_f_pointer(N_VGetArrayPointer(pps(k)), sd, [n])
       columns(:, k) = s
       rates(:, k) = sd
     end do
-    call ggl_residual_tangent_columns(ud%model, t, y, yd, columns, rates, changes)
+    call ggl_residual_columns(ud%model, t, y, yd, columns, rates, changes)
     do k = 1, ns
       call c_f_pointer(N_VGetArrayPointer(prs(k)), rs, [n])
       rs = points%fp(:, k) + changes(:, k)

@@ -14,7 +14,7 @@ module rotorcable_probes
   use rotorcable_dae_integrator, only: integrator_settings, settings_from_flat, solver_stats, consistent_start, &
                                        integrate
   use rotorcable_ggl_residual, only: ggl_residual_dense, ggl_jacobian_dense, ggl_residual_tangent, &
-                                     ggl_residual_tangent_columns
+                                     ggl_residual_tangent_columns, ggl_residual_columns, ggl_residual_matrix_columns
   use rotorcable_ggl_linear_solver, only: ggl_block_solver, block_factorise, block_solve
   use rotorcable_chain_linear_solver, only: ggl_chain_solver, chain_solver_create, chain_factorise, chain_solve, &
                                             chain_iteration_matrix
@@ -242,15 +242,18 @@ contains
     call to_status(error, stat, msg)
   end subroutine rc_probe_residual_tangent
 
-  !> The same for m directions at once (ggl_residual_tangent_columns, the sensitivity
-  !> residual's path): column c must be rc_probe_residual_tangent of column c, bit for bit.
-  subroutine rc_probe_residual_tangent_columns(handle, t, n, y, yd, m, dy, dyd, dr, stat, msg)
+  !> The same for m directions at once: route 0 the sensitivity residuals' choice
+  !> (ggl_residual_columns), 1 the tangent sweeps (ggl_residual_tangent_columns: column c must
+  !> be rc_probe_residual_tangent of column c, bit for bit), 2 the whole matrices
+  !> (ggl_residual_matrix_columns).
+  subroutine rc_probe_residual_tangent_columns(handle, t, n, y, yd, m, dy, dyd, route, dr, stat, msg)
     integer(c_int), intent(in) :: handle          !< model handle
     real(c_double), intent(in) :: t               !< time [s]
     integer(c_int), intent(in) :: n               !< GGL unknowns 2 nq + 2 nc
     real(c_double), intent(in) :: y(n), yd(n)     !< state
     integer(c_int), intent(in) :: m               !< directions
     real(c_double), intent(in) :: dy(n, m), dyd(n, m)  !< the directions
+    integer(c_int), intent(in) :: route           !< 0 chosen, 1 sweeps, 2 matrices
     real(c_double), intent(out) :: dr(n, m)       !< changes of the residual
     integer(c_int), intent(out) :: stat           !< 0 = ok
     character(len=1024), intent(out) :: msg       !< why not
@@ -261,7 +264,16 @@ contains
     if (error%code == 0) then
       if (n /= 2*model%nq + 2*model%nc) call fatal_error(error, 'n must be 2 nq + 2 nc')
     end if
-    if (error%code == 0) call ggl_residual_tangent_columns(model, t, y, yd, dy, dyd, dr)
+    if (error%code == 0) then
+      select case (route)
+      case (1)
+        call ggl_residual_tangent_columns(model, t, y, yd, dy, dyd, dr)
+      case (2)
+        call ggl_residual_matrix_columns(model, t, y, yd, dy, dyd, dr)
+      case default
+        call ggl_residual_columns(model, t, y, yd, dy, dyd, dr)
+      end select
+    end if
     call to_status(error, stat, msg)
   end subroutine rc_probe_residual_tangent_columns
 
