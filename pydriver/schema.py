@@ -500,7 +500,8 @@ def _keys() -> list[Key]:
                 "uninterrupted run exactly"))
     add(Key("solver", "periodic_method", "str", default="marching", choices=("marching", "shooting"),
             doc="flight: the periodic steady state by marching whole revolutions until two agree, or by "
-                "shooting (Newton on x(T) - x(0) with the monodromy from IDAS sensitivities)"))
+                "shooting (Newton-Picard on x(T) - x(0): Newton on the slowly decaying hover modes' "
+                "subspace, with sensitivity columns of one revolution, plain revolutions on the rest)"))
     add(Key("solver", "floquet", "bool", default=False,
             doc="flight: Floquet stability of the periodic motion from its monodromy matrix (floquet.csv); "
                 "refined runs take the least damped modes at every n from a subspace of it and extrapolate them"))

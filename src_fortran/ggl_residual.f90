@@ -30,8 +30,9 @@ module rotorcable_ggl_residual
   !> The pass costs about as much as 15-20 sweeps and the products O(nq^2) a column against a
   !> sweep's O(nq), so the matrices pay only for many columns on short chains.  Measured per
   !> call (benchmarks/residual_columns.py, its table in benchmarks/README.md), sweeps/matrices:
-  !> nq = 20: 0.79 at 12 columns, 1.38 at 20, 1.50 at 40; nq = 42: 0.75 at 20, 1.09 at 40;
-  !> nq = 86: 0.47 at 20, 0.62 at 40.  Either route gives the same numbers to round-off.
+  !> nq = 20: 0.74-0.79 at 12 columns, 0.99-1.38 at 20, 1.40-1.50 at 40; nq = 42: 0.75 at 20,
+  !> 1.03-1.09 at 40; nq = 86: 0.39-0.47 at 20, 0.49-0.62 at 40 (two runs on a shared 2-core
+  !> machine).  Either route gives the same numbers to round-off.
   integer, parameter :: MATRIX_COLUMNS_MIN = 16
   integer, parameter :: MATRIX_COLUMNS_MAX_NQ = 64
 

@@ -55,7 +55,7 @@ def flight_run(model, run_dir=None) -> Result:
     report("flight: the hover state's modes (how many revolutions marching needs)")
     hover = hover_modes(model)
     require_periodic_reachable(model, hover)
-    result = flight_analysis(model, run_dir)
+    result = flight_analysis(model, run_dir, hover)
     flight_check(model, result)
     add_hover_modes(model, result, hover)
     if "monodromy" in result.extra:
@@ -65,8 +65,9 @@ def flight_run(model, run_dir=None) -> Result:
     return result
 
 
-def flight_analysis(model, run_dir=None) -> Result:
-    """Revolutions to a periodic steady state; the last one in detail."""
+def flight_analysis(model, run_dir=None, hover=None) -> Result:
+    """Revolutions to a periodic steady state; the last one in detail.  ``hover``: the hover
+    modes, when the caller has them (shooting steers by them; computed there otherwise)."""
     t_wall = time.perf_counter()
     s = model.deck.values["solver"]
     rot = model.description["rotor"]
@@ -74,7 +75,7 @@ def flight_analysis(model, run_dir=None) -> Result:
     spr, tol = int(s["samples_per_rev"]), float(s["periodic_tol"])
     shooting = None
     if s["periodic_method"] == "shooting":
-        q0, v0, shooting = periodic_start(model, period, tol)
+        q0, v0, shooting = periodic_start(model, period, tol, hover)
     else:
         q0, _, _ = equilibrium(model, t=0.0)
         v0 = np.zeros_like(q0)
@@ -144,26 +145,21 @@ def flight_analysis(model, run_dir=None) -> Result:
     if shooting is not None:
         summary["shooting"] = {"newton_iterations": shooting["iterations"],
                                "differences_m": shooting["differences_m"], "steps": shooting["steps"],
+                               "method": "newton-picard", "newton_columns": shooting["newton_columns"],
                                "revolutions_integrated": shooting["iterations"] + summary["revolutions"]}
     extra = {"q": q_last.T, "shape_joints": sample.joints}
     # A start on the periodic orbit at t = 0 and, where one was taken there, its monodromy and the
     # basis of its coordinates (the design sensitivities, pydriver/analyses/flight_sensitivities.py).
-    if shooting is not None:
-        extra["orbit"] = {"q0": q0, "v0": v0, "phi": shooting["phi"], "basis": shooting["basis"]}
-    else:
-        extra["orbit"] = {"q0": q_last[:, 0], "v0": v_last[:, 0]}
+    extra["orbit"] = {"q0": q_last[:, 0], "v0": v_last[:, 0]}
     extra["orbit"]["period_s"] = period
     if s["floquet"]:
-        # The monodromy at the periodic state: shooting's last iterate, or one revolution with
-        # sensitivities from the start of the last marched revolution (Floquet stability).
-        if shooting is not None:
-            extra["monodromy"] = shooting["phi"]
-        else:
-            report(f"flight: monodromy over one revolution ({2 * (model.nq - model.nc)} sensitivity columns, for "
-                   "the Floquet stability)")
-            mono = model.core.monodromy(model.solver_settings(), 0.0, q_last[:, 0], v_last[:, 0], [period])
-            extra["monodromy"] = mono["phi"]
-            extra["orbit"].update(q0=mono["q0"], v0=mono["v0"], phi=mono["phi"], basis=mono["basis"])
+        # The monodromy at the periodic state: one revolution with sensitivities from the start
+        # of the last marched revolution (Floquet stability; shooting's Newton-Picard has none).
+        report(f"flight: monodromy over one revolution ({2 * (model.nq - model.nc)} sensitivity columns, for "
+               "the Floquet stability)")
+        mono = model.core.monodromy(model.solver_settings(), 0.0, q_last[:, 0], v_last[:, 0], [period])
+        extra["monodromy"] = mono["phi"]
+        extra["orbit"].update(q0=mono["q0"], v0=mono["v0"], phi=mono["phi"], basis=mono["basis"])
         extra["period_s"] = period
     if "fatigue" in model.deck.groups:
         report("flight: fatigue (rainflow around the jacket at every joint)")
