@@ -371,41 +371,44 @@ contains
     real(dp), intent(in) :: dy(:, :), dyd(:, :)  !< (n, m) their changes
     real(dp), intent(out) :: dr(:, :)         !< (n, m) changes of the residual
     logical, intent(in), optional :: held     !< the caller has just evaluated the base point
-    real(dp), allocatable :: res_q(:, :), res_v(:, :), mass(:, :), gtmu_q(:, :)
-    real(dp), allocatable :: g(:, :), gv_q(:, :), gv_v(:, :)
-    real(dp), allocatable :: dq(:, :), dv(:, :), dvd(:, :), dmult(:, :), prod(:, :), rows(:, :)
+    ! Each row block is one product of the blocks side by side with the directions stacked (one
+    ! dgemm with a longer inner dimension runs faster than three short ones):
+    !   v rows  [d(res)/dq  d(res)/dv  M  -G^T] [dq; dv; dv'; dlambda]
+    !   q rows  [d(G^T mu)/dq  G^T] [dq; dmu]
+    !   g, Gv   [G  0; d(G v + g_t)/dq  G] [dq; dv]
+    real(dp), allocatable :: v_rows(:, :), q_rows(:, :), c_rows(:, :), operand(:, :), prod(:, :)
+    real(dp), allocatable :: g(:, :), gv_v(:, :)
     integer :: nq, nc, n, m
     nq = model%nq; nc = model%nc; n = 2*nq + 2*nc; m = size(dy, 2)
-    allocate (res_q(nq, nq), res_v(nq, nq), mass(nq, nq))
-    call eom_derivatives(model, t, y(1:nq), y(nq + 1:2*nq), yd(nq + 1:2*nq), y(2*nq + 1:2*nq + nc), res_q, res_v, &
-                         mass, held)
-    dq = dy(1:nq, :); dv = dy(nq + 1:2*nq, :); dvd = dyd(nq + 1:2*nq, :)
-    allocate (prod(nq, m))
-    ! v rows
-    call dgemm('N', 'N', nq, m, nq, 1.0_dp, res_q, nq, dq, nq, 0.0_dp, prod, nq)
-    call dgemm('N', 'N', nq, m, nq, 1.0_dp, res_v, nq, dv, nq, 1.0_dp, prod, nq)
-    call dgemm('N', 'N', nq, m, nq, 1.0_dp, mass, nq, dvd, nq, 1.0_dp, prod, nq)
+    allocate (v_rows(nq, 3*nq + nc), operand(3*nq + nc, m), prod(nq, m))
+    call eom_derivatives(model, t, y(1:nq), y(nq + 1:2*nq), yd(nq + 1:2*nq), y(2*nq + 1:2*nq + nc), &
+                         v_rows(:, 1:nq), v_rows(:, nq + 1:2*nq), v_rows(:, 2*nq + 1:3*nq), held)
+    operand(1:2*nq, :) = dy(1:2*nq, :)
+    operand(2*nq + 1:3*nq, :) = dyd(nq + 1:2*nq, :)
     if (nc > 0) then
-      allocate (gtmu_q(nq, nq), g(nc, nq), gv_q(nc, nq), gv_v(nc, nq), rows(nc, m))
-      call constraint_derivatives(model, y(2*nq + nc + 1:n), gtmu_q, g, gv_q, gv_v)
-      dmult = dy(2*nq + 1:2*nq + nc, :)                       ! dlambda
-      call dgemm('T', 'N', nq, m, nc, -1.0_dp, g, nc, dmult, nc, 1.0_dp, prod, nq)
-      dr(nq + 1:2*nq, :) = prod
-      ! q rows
-      dmult = dy(2*nq + nc + 1:n, :)                          ! dmu
-      call dgemm('N', 'N', nq, m, nq, 1.0_dp, gtmu_q, nq, dq, nq, 0.0_dp, prod, nq)
-      call dgemm('T', 'N', nq, m, nc, 1.0_dp, g, nc, dmult, nc, 1.0_dp, prod, nq)
-      dr(1:nq, :) = dyd(1:nq, :) - dv + prod
-      ! g rows, then G v rows
-      call dgemm('N', 'N', nc, m, nq, 1.0_dp, g, nc, dq, nq, 0.0_dp, rows, nc)
-      dr(2*nq + 1:2*nq + nc, :) = rows
-      call dgemm('N', 'N', nc, m, nq, 1.0_dp, gv_q, nc, dq, nq, 0.0_dp, rows, nc)
-      call dgemm('N', 'N', nc, m, nq, 1.0_dp, gv_v, nc, dv, nq, 1.0_dp, rows, nc)
-      dr(2*nq + nc + 1:n, :) = rows
-    else
-      dr(nq + 1:2*nq, :) = prod
-      dr(1:nq, :) = dyd(1:nq, :) - dv
+      allocate (q_rows(nq, nq + nc), c_rows(2*nc, 2*nq), g(nc, nq), gv_v(nc, nq))
+      call constraint_derivatives(model, y(2*nq + nc + 1:n), q_rows(:, 1:nq), g, c_rows(nc + 1:2*nc, 1:nq), gv_v)
+      v_rows(:, 3*nq + 1:3*nq + nc) = -transpose(g)
+      operand(3*nq + 1:3*nq + nc, :) = dy(2*nq + 1:2*nq + nc, :)     ! dlambda
     end if
+    call dgemm('N', 'N', nq, m, 3*nq + nc, 1.0_dp, v_rows, nq, operand, 3*nq + nc, 0.0_dp, prod, nq)
+    dr(nq + 1:2*nq, :) = prod
+    if (nc == 0) then
+      dr(1:nq, :) = dyd(1:nq, :) - dy(nq + 1:2*nq, :)
+      return
+    end if
+    q_rows(:, nq + 1:nq + nc) = transpose(g)
+    operand(nq + 1:nq + nc, :) = dy(2*nq + nc + 1:n, :)             ! dmu after dq
+    call dgemm('N', 'N', nq, m, nq + nc, 1.0_dp, q_rows, nq, operand, 3*nq + nc, 0.0_dp, prod, nq)
+    dr(1:nq, :) = dyd(1:nq, :) - dy(nq + 1:2*nq, :) + prod
+    c_rows(1:nc, 1:nq) = g
+    c_rows(1:nc, nq + 1:2*nq) = 0.0_dp
+    c_rows(nc + 1:2*nc, nq + 1:2*nq) = gv_v
+    operand(nq + 1:2*nq, :) = dy(nq + 1:2*nq, :)                    ! dv after dq again
+    deallocate (prod)
+    allocate (prod(2*nc, m))
+    call dgemm('N', 'N', 2*nc, m, 2*nq, 1.0_dp, c_rows, 2*nc, operand, 3*nq + nc, 0.0_dp, prod, 2*nc)
+    dr(2*nq + 1:n, :) = prod
   end subroutine ggl_residual_matrix_columns
 
   !> The physics columns by central differences of the residual at fixed y' (the check of the

@@ -73,6 +73,8 @@ module rotorcable_linalg
   !> Status returned by the wrappers when their input is not finite (LAPACK would otherwise
   !> report an illegal argument through xerbla, which prints and cannot be caught).
   integer, parameter, public :: INFO_NOT_FINITE = -1000
+  !> Largest order whose LU solves are compiled loops here (lu_solve) rather than dgetrs.
+  integer, parameter, public :: SMALL_LU_ORDER = 64
 
 contains
 
@@ -90,7 +92,7 @@ contains
   end function all_finite
 
   !> Solve A x = b in place with the LU factors and pivots of LAPACK's dgetrf (as dgetrs does).
-  !> Below SMALL_LU the row interchanges and both triangular substitutions are compiled loops
+  !> Up to SMALL_LU_ORDER the row interchanges and both triangular substitutions are compiled loops
   !> here: OpenBLAS's dgetrs costs about ten times the arithmetic on the 20 x 20 and 12 x 12
   !> factors of a short chain (measured with callgrind: 13.7 % of the UH-60 decay's integration,
   !> ~4300 instructions per 20 x 20 solve); above it, dgetrs.
@@ -99,10 +101,9 @@ contains
     real(dp), intent(in) :: lu(n, n)          !< factors from dgetrf
     integer, intent(in) :: pivots(n)          !< pivots from dgetrf
     real(dp), intent(inout) :: b(n)           !< right-hand side, then solution
-    integer, parameter :: SMALL_LU = 64
     real(dp) :: s, s2
     integer :: i, k, info
-    if (n > SMALL_LU) then
+    if (n > SMALL_LU_ORDER) then
       call dgetrs('N', n, 1, lu, n, pivots, b, n, info)
       return
     end if
