@@ -74,7 +74,7 @@ module rotorcable_linalg
   !> report an illegal argument through xerbla, which prints and cannot be caught).
   integer, parameter, public :: INFO_NOT_FINITE = -1000
   !> Largest order whose LU solves are compiled loops here (lu_solve) rather than dgetrs.
-  integer, parameter, public :: SMALL_LU_ORDER = 64
+  integer, parameter :: SMALL_LU_ORDER = 64
 
 contains
 
