@@ -51,11 +51,13 @@ COLUMN_ATOL_SHARE = 1.0e-3
 #: Images of a new block below this share of the largest image are round-off, not a direction.
 NEW_DIRECTION_SHARE = 1.0e-12
 #: Hover modes in the start block beyond those whose hover multiplier is above the floor: a
-#: column costs little beside the steps (measured at n = 44: one period with 8 columns took
-#: as long as with 1; the tight column tolerance sets the steps), while a start block closer to
-#: the Floquet modes saves a Krylov block (main job at n = 22: 4 extra modes converged in 2
-#: blocks, 1 extra mode needed 3).
-EXTRA_MODES = 4
+#: start block closer to the Floquet modes saves a Krylov block (main job at n = 22: 4 extra
+#: modes converged in 2 blocks, 1 extra mode needed 3).  A column once cost little beside the
+#: steps; since the tangent system's steps got cheaper (issue 39: block solver, compiled vector
+#: kernels) every column counts: the main job's largest start block at n = 44 took 3.1 s with 4
+#: extra modes (14 columns) and 1.8 s with 2 (10 columns), both in 2 blocks at every level, the
+#: least damped mode's damping ratio moved by 2.5e-8 (its error bar: 3.2e-5).
+EXTRA_MODES = 2
 
 
 def hover_multipliers(hover_summary: dict, period: float) -> np.ndarray:
