@@ -61,7 +61,11 @@ def flight_run(model, run_dir=None) -> Result:
     if "monodromy" in result.extra:
         report("flight: Floquet multipliers of the monodromy")
         from pydriver.analyses.floquet import add_floquet
+        t_floquet = time.perf_counter()
         add_floquet(model, result, result.extra["monodromy"], result.extra["period_s"])
+        # Floquet's own time: the monodromy's revolution with its columns and the eigenvalues.
+        result.summary["floquet"]["wall_time_s"] = (result.extra["monodromy_wall_time_s"]
+                                                    + time.perf_counter() - t_floquet)
     return result
 
 
@@ -157,7 +161,9 @@ def flight_analysis(model, run_dir=None, hover=None) -> Result:
         # of the last marched revolution (Floquet stability; shooting's Newton-Picard has none).
         report(f"flight: monodromy over one revolution ({2 * (model.nq - model.nc)} sensitivity columns, for "
                "the Floquet stability)")
+        t_mono = time.perf_counter()
         mono = model.core.monodromy(model.solver_settings(), 0.0, q_last[:, 0], v_last[:, 0], [period])
+        extra["monodromy_wall_time_s"] = time.perf_counter() - t_mono
         extra["monodromy"] = mono["phi"]
         extra["orbit"].update(q0=mono["q0"], v0=mono["v0"], phi=mono["phi"], basis=mono["basis"])
         extra["period_s"] = period
