@@ -7,6 +7,8 @@ meson option ``probes`` on (``bash .ci/setup``), not the product wheel."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 import pydriver
@@ -76,3 +78,16 @@ def nested_sets(sets: dict) -> dict:
 def set_args(sets: dict) -> list:
     """The command-line form of ``sets``, to hand on to a child process."""
     return [a for k, v in sets.items() for a in ("--set", f"{k}={v}")]
+
+
+def open_chain_model(deck_path) -> pydriver.Model:
+    """The deck's chain with clamp B removed (end B free), its start in its own equilibrium: the
+    open-chain variant of a closed-chain deck, for peers that run the open chain (the MuJoCo
+    RK4 peer, benchmarks/peers/mujoco_route.py) and rotorcable's reference of it."""
+    from pydriver.deckfile import read_deck, validate
+    d = read_deck(deck_path)
+    raw = {g: dict(v) for g, v in d.raw.items() if g != "clamp_b"}
+    starts = {g: dict(v) for g, v in d.starts.items() if g != "clamp_b"}
+    deck = validate(raw, starts, f"{Path(deck_path).stem}_open")
+    deck.path = d.path
+    return pydriver.Model(deck)
