@@ -169,6 +169,17 @@ def eom_derivatives(core: CoreModel, q, v, vdot, lam, t: float = 0.0) -> dict:
     return {"dres_dq": dq, "dres_dv": dv, "mass": m}
 
 
+def ode_jacobian(core: CoreModel, q, v, baumgarte_omega: float = 50.0, t: float = 0.0) -> dict:
+    """The ODE route's right-hand side ``ydot`` = (v, vdot) and its Jacobian d(y')/dy, y = (q, v),
+    at (t, q, v): ``analytic`` (what GSL msbdf gets) and ``differences`` (the forward differences
+    it got before)."""
+    n = 2 * core.nq
+    yd, ja, jd, stat, msg = _probes.rc_probe_ode_jacobian(core.handle, float(t), _reals(q), _reals(v),
+                                                          float(baumgarte_omega), n)
+    _raise(core.deck, stat, "", msg)
+    return {"ydot": yd, "analytic": ja, "differences": jd}
+
+
 def articulated_solve(core: CoreModel, q, armature, tau, t: float = 0.0) -> np.ndarray:
     """(M(q) + diag(armature))^-1 tau by the articulated-body factorisation (the chain
     solver's kernel)."""

@@ -18,7 +18,7 @@ module rotorcable_probes
   use rotorcable_ggl_linear_solver, only: ggl_block_solver, block_factorise, block_solve
   use rotorcable_chain_linear_solver, only: ggl_chain_solver, chain_solver_create, chain_factorise, chain_solve, &
                                             chain_iteration_matrix
-  use rotorcable_ode_integrator, only: ode_settings, integrate_ode, ODE_RK8PD, ODE_MSBDF
+  use rotorcable_ode_integrator, only: ode_settings, integrate_ode, ode_jacobian_matrix, ode_right_hand_side, ODE_RK8PD, ODE_MSBDF
   use rotorcable_linalg, only: dgetrf, dgetrs
   use rotorcable_projection, only: constraint_rank_margin
   use rotorcable_articulated_body, only: articulated_factors, articulated_factorise, articulated_solve
@@ -29,7 +29,7 @@ module rotorcable_probes
   public :: rc_probe_evaluate, rc_probe_consistent_start, rc_probe_ggl_residual, rc_probe_iteration_matrix, &
             rc_probe_time_kernels, rc_probe_integrate, rc_probe_rank_margin, rc_probe_chain_solver, &
             rc_probe_residual_tangent, rc_probe_residual_tangent_columns, rc_probe_articulated_solve, &
-            rc_probe_parameter_partial, rc_probe_eom_derivatives
+            rc_probe_parameter_partial, rc_probe_eom_derivatives, rc_probe_ode_jacobian
 
 contains
 
@@ -620,6 +620,35 @@ contains
     end if
     call to_status(error, stat, msg)
   end subroutine rc_probe_integrate
+
+  !> The ODE route's right-hand side y' and Jacobian d(y')/dy at (t, q, v) (GSL msbdf's), analytic
+  !> and by forward differences of the right-hand side (ode_integrator's ode_jacobian_matrix).
+  subroutine rc_probe_ode_jacobian(handle, t, nq, q, v, baumgarte_omega, n, ydot, jac_analytic, jac_differences, &
+                                   stat, msg)
+    integer(c_int), intent(in) :: handle          !< model handle
+    real(c_double), intent(in) :: t               !< time [s]
+    integer(c_int), intent(in) :: nq, n           !< coordinates, 2 nq
+    real(c_double), intent(in) :: q(nq), v(nq)    !< state
+    real(c_double), intent(in) :: baumgarte_omega !< Baumgarte constant [1/s]
+    real(c_double), intent(out) :: ydot(n)        !< right-hand side y'
+    real(c_double), intent(out) :: jac_analytic(n, n)     !< analytic
+    real(c_double), intent(out) :: jac_differences(n, n)  !< forward differences
+    integer(c_int), intent(out) :: stat           !< 0 = ok
+    character(len=1024), intent(out) :: msg       !< why not
+    type(model_type), pointer :: model
+    type(error_type) :: error
+    integer :: info_a, info_d, info_f
+    ydot = 0.0_dp; jac_analytic = 0.0_dp; jac_differences = 0.0_dp
+    model => model_of(handle, error)
+    if (error%code == 0 .and. n /= 2*nq) call fatal_error(error, 'n must be 2 nq')
+    if (error%code == 0) then
+      call ode_jacobian_matrix(model, t, q, v, baumgarte_omega, .true., jac_analytic, info_a)
+      call ode_jacobian_matrix(model, t, q, v, baumgarte_omega, .false., jac_differences, info_d)
+      call ode_right_hand_side(model, t, q, v, baumgarte_omega, ydot, info_f)
+      if (info_a /= 0 .or. info_d /= 0 .or. info_f /= 0) call fatal_error(error, 'singular acceleration system')
+    end if
+    call to_status(error, stat, msg)
+  end subroutine rc_probe_ode_jacobian
 
   !> sigma_min/sigma_max of the constraint Jacobian at (q, t) (rank test of the supports).
   subroutine rc_probe_rank_margin(handle, t, nq, q, margin)
