@@ -25,10 +25,13 @@ rest angles, gravity, the 1 N pulse for 0.1 s, clamp B, the consistent start) co
 * **Clamp B** (``mujoco-implicitfast-weld``): a ``<weld site1 site2>`` equality between a site at
   the tip (0, 0, L_n) of the last body (body axes) and a world site at clamp B's position and
   rotation; satisfied at q0 by construction.  MuJoCo constraints are soft: the weld's reference
-  acceleration is a spring-damper with time constant ``solref[0]`` (MuJoCo raises it to at least
-  2 timesteps, "refsafe") and impedance ``solimp``; with dmin = dmax = 0.9999 the compliance under
-  the chain's ~145 N pre-stress is ~(1 - d)/d A tc^2 |lambda| ~ 1e-8 m at h = 1e-4 s, below the
-  1e-6 m target, so what is measured is mostly the integrator.  Newton solver, tolerance 1e-12.
+  acceleration is a spring-damper with time constant ``solref[0]`` (asked 1e-6 s, MuJoCo raises
+  it to 2 timesteps, "refsafe"; below that the run is unstable) and impedance ``solimp`` (dmin =
+  dmax = 0.9999, the stiffest allowed).  The compliance is ~(1 - d)/d A tc^2 |lambda|, A the
+  inverse inertia the constraint sees: the tip's position is held to ~6e-9 m at h = 1e-4 s, but
+  the rotation rows see the links' tiny axial inertia (~1e-6 kg m^2), so the chain sags by
+  3.3e-5 m at h = 1e-4 s and 1.3e-6 m at 2e-5 s (:func:`check_physics`), like h^2: that, not the
+  integrator, sets this variant's error.  Newton solver, tolerance 1e-12.
 
 Methods (accuracy knob = the fixed time step h; the solve is in C, ``mj_step(nstep=...)`` per
 sample interval, so Python costs one call per 0.02 s block):
