@@ -24,7 +24,7 @@ module rotorcable_ida_binding
             SUN_NLS_SUCCESS, SUN_NLS_CONTINUE, SUN_NLS_CONV_RECVR, SUN_NLS_MEM_NULL
 
   public :: sun_linear_solver, sun_linear_solver_ops, SUNLINEARSOLVER_DIRECT, SUNLINEARSOLVER_MATRIX_EMBEDDED, &
-            SUNLS_SUCCESS, SUNLS_LUFACT_FAIL
+            SUNLS_SUCCESS, SUNLS_LUFACT_FAIL, SUNLS_PACKAGE_FAIL_REC
   public :: copy_solver_message
 
   !> Return values of a SUNNonlinearSolver and its convergence test (sundials_nonlinearsolver.h, 6.4).
@@ -51,6 +51,7 @@ module rotorcable_ida_binding
   integer(c_int), parameter :: SUNLINEARSOLVER_MATRIX_EMBEDDED = 3
   integer(c_int), parameter :: SUNLS_SUCCESS = 0
   integer(c_int), parameter :: SUNLS_LUFACT_FAIL = 808     !< positive: IDA retries (recoverable)
+  integer(c_int), parameter :: SUNLS_PACKAGE_FAIL_REC = 806  !< recoverable failure of the solver's own work
   integer(c_int), parameter :: IDA_NORMAL = 1   !< itask of IDASolve: return at tout
   !> ism of IDASensInit: the sensitivity corrector after the state's (idas.h)
   integer(c_int), parameter :: IDA_STAGGERED = 2

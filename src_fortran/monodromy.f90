@@ -47,7 +47,7 @@ module rotorcable_monodromy
                                     IDA_NORMAL, IDAGetNumSteps, IDAGetNumResEvals, IDAGetNumErrTestFails, &
                                     IDAGetNumNonlinSolvConvFails, IDAGetCurrentCj, sun_linear_solver, &
                                     sun_linear_solver_ops, SUNLinSolNewEmpty, SUNLinSolFreeEmpty, &
-                                    SUNLINEARSOLVER_MATRIX_EMBEDDED, SUNLS_SUCCESS, SUNLS_LUFACT_FAIL, &
+                                    SUNLINEARSOLVER_MATRIX_EMBEDDED, SUNLS_SUCCESS, SUNLS_LUFACT_FAIL, SUNLS_PACKAGE_FAIL_REC, &
                                     copy_solver_message
   use rotorcable_dae_integrator, only: integrator_settings, solver_stats, consistent_start
   use rotorcable_nvector_kernels, only: use_fast_kernels
@@ -78,7 +78,6 @@ module rotorcable_monodromy
     real(dp) :: t = 0.0_dp                    !< time of the last residual [s]
     real(dp), allocatable :: y(:), yd(:)      !< state (y, y') of the last residual
     real(dp), allocatable :: s(:, :), sd(:, :) !< sensitivities (s_k, s_k') of the last residual
-    real(dp), allocatable :: rs(:, :)         !< their residuals F_y s_k + F_y' s_k' there
     real(dp), allocatable :: jac(:, :)        !< the state's iteration matrix (its factors: block)
     type(ggl_block_solver) :: block           !< their block factorisation (rotorcable_ggl_linear_solver)
     logical :: factorised = .false.
@@ -87,7 +86,7 @@ module rotorcable_monodromy
     integer(c_long) :: factor_step = 0, factor_fails = 0
     integer :: max_age = 100                  !< steps over which the factors are kept
     integer :: factorisations = 0
-    integer :: coupling_evals = 0             !< residual sweeps (state and all columns) of the coupling
+    integer :: column_evals = 0               !< evaluations of all the columns (one per Newton iteration)
     character(len=512) :: ida_message = ''
   end type tangent_data
 
@@ -195,7 +194,7 @@ contains
     td%nq = nq; td%nc = nc; td%ns = ns
     td%max_age = settings%jacobian_max_age
     td%analytic = settings%analytic_jacobian
-    allocate (td%jac(n, n), td%y(n), td%yd(n), td%s(n, ns), td%sd(n, ns), td%rs(n, ns))
+    allocate (td%jac(n, n), td%y(n), td%yd(n), td%s(n, ns), td%sd(n, ns))
     if (SUNContext_Create(c_null_ptr, ctx) /= 0 .or. .not. c_associated(ctx)) then
       call fatal_error(error, 'SUNDIALS SUNContext_Create failed')
       deallocate (td)
@@ -294,9 +293,9 @@ contains
       if (IDAGetNumErrTestFails(mem, counter) == 0) stats%error_test_failures = int(counter)
       if (IDAGetNumNonlinSolvConvFails(mem, counter) == 0) stats%convergence_failures = int(counter)
       stats%jacobian_evals = td%factorisations
-      ! Every residual of the tangent system evaluates all the sensitivity columns, and so does
-      ! every coupling product of the linear solver (tangent_ls_solve).
-      sens_residual_evals = stats%residual_evals + td%coupling_evals
+      ! The linear solver evaluates all the sensitivity columns once a Newton iteration
+      ! (tangent_ls_solve); the residuals do not.
+      sens_residual_evals = td%column_evals
       call IDAFree(mem)
     end if
     if (c_associated(lsol)) then
@@ -313,68 +312,67 @@ contains
     deallocate (td)
   end subroutine tangent_run
 
-  !> IDAResFn of the tangent system Y = (y, s_1 ... s_ns): the GGL residual F(t, y, y') and,
-  !> for every column, F_y s_k + F_y' s_k' by the analytic tangent at (t, y, y').  Returns 0,
-  !> or 1 (recoverable: IDA cuts the step) on a non-finite value.
+  !> IDAResFn of the tangent system Y = (y, s_1 ... s_ns): the GGL residual F(t, y, y') of the
+  !> state, and zero in the columns' rows.  The columns' residuals F_y s_k + F_y' s_k' are taken
+  !> by the linear solver at the state's Newton update instead (tangent_ls_solve: one evaluation
+  !> of all the columns per Newton iteration, not two), and IDA uses a residual only as the
+  !> right-hand side of that solve.  Returns 0, or 1 (recoverable: IDA cuts the step) on a
+  !> non-finite value.
   integer(c_int) function tangent_residual(t, yy, yp, rr, udata) bind(C)
     real(c_double), value :: t
     type(c_ptr), value :: yy, yp, rr, udata
     type(tangent_data), pointer :: td
-    real(c_double), pointer :: y(:), yd(:), r(:), ys(:, :), yds(:, :), rs(:, :)
+    real(c_double), pointer :: y(:), yd(:), r(:)
     integer :: n, big
     call c_f_pointer(udata, td)
     n = 2*td%nq + 2*td%nc; big = n*(td%ns + 1)
     call c_f_pointer(N_VGetArrayPointer(yy), y, [big])
     call c_f_pointer(N_VGetArrayPointer(yp), yd, [big])
     call c_f_pointer(N_VGetArrayPointer(rr), r, [big])
-    ! The state's residual first: the tangents reuse its kinematics, loads and wrenches.
     call ggl_residual_dense(td%model, t, y(1:n), yd(1:n), r(1:n))
-    ! All the columns at the point just evaluated (held), together, by the cheaper route for
-    ! this many columns (ggl_residual_columns: tangent sweeps or the whole derivative matrices).
-    ys(1:n, 1:td%ns) => y(n + 1:big)
-    yds(1:n, 1:td%ns) => yd(n + 1:big)
-    rs(1:n, 1:td%ns) => r(n + 1:big)
-    call ggl_residual_columns(td%model, t, y(1:n), yd(1:n), ys, yds, rs, held=.true.)
-    ! The iterate of this residual is where a factorisation that follows is taken.
+    r(n + 1:big) = 0.0_dp
+    ! The iterate of this residual: where a factorisation that follows is taken, and the
+    ! columns' values of the Newton update.
     td%t = t; td%y = y(1:n); td%yd = yd(1:n)
     td%s = reshape(y(n + 1:big), [n, td%ns]); td%sd = reshape(yd(n + 1:big), [n, td%ns])
-    td%rs = reshape(r(n + 1:big), [n, td%ns])
     tangent_residual = 0
-    if (.not. all(abs(r) <= huge(1.0_dp))) tangent_residual = 1
+    if (.not. all(abs(r(1:n)) <= huge(1.0_dp))) tangent_residual = 1
   end function tangent_residual
 
   !> SUNLinSolSolve of the tangent system.  Its Newton matrix is block lower triangular,
   !>   [ J    0 ] [dy ]   [b_0]      J   = F_y + cj F_y' (the state's GGL iteration matrix),
   !>   [ C_k  J ] [ds_k] = [b_k],    C_k = d(F_y s_k + F_y' s_k')/dy + cj d(...)/dy',
-  !> and is solved exactly by forward substitution: dy = J^-1 b_0, then
-  !> ds_k = J^-1 (b_k - C_k dy).  C_k dy is a forward difference of the tangent residual along
-  !> (dy, cj dy) at fixed (s_k, s_k'): one more residual and ns tangent sweeps per Newton
-  !> iteration (skipped when dy = 0 exactly).  The coupling must not be dropped.  With the block
-  !> diagonal alone (this module's first tangent version) the corrector is a modified Newton
-  !> whose sensitivity corrections miss C_k dy, and its convergence test, which sees only the
-  !> size and rate of the last correction, accepts iterates whose iteration error (so we read
-  !> the counts below) the error test then takes for local error.  Measured on the free 4-body chain in the stream
-  !> (tests/test_monodromy.py, rtol 1e-8): 16 796 error-test failures and 2 convergence
-  !> failures in 20 000 steps, stalled at t = 0.163 s of the 0.23 s period with steps of
-  !> ~4e-8 s; with the coupling 4 676 steps, 180 error-test failures, none of convergence.  J is
-  !> factorised (block elimination, rotorcable_ggl_linear_solver) at the last residual's iterate
-  !> when cj has moved by more
-  !> than CJ_WINDOW, after a convergence failure, or after max_age steps; IDA calls no setup
-  !> for a matrix-embedded solver (chain_linear_solver's header).  A singular factor is
-  !> recoverable.
+  !> b_k = -(F_y s_k + F_y' s_k') at the iterate (y, y'), and is solved by forward substitution:
+  !> dy = J^-1 b_0, then ds_k = J^-1 (b_k - C_k dy).  The columns' rows are linear in s, so
+  !> b_k - C_k dy = -(F_y s_k + F_y' s_k') at the updated state (y + dy, y' + cj dy), to
+  !> O(|dy|^2), the order Newton's step already neglects: one evaluation of all the columns per
+  !> Newton iteration, there (tangent_residual leaves them out).  Before, the columns were
+  !> evaluated at the iterate (the residual) and again at y + eps dy (C_k dy by a forward
+  !> difference): twice as many, and on the main job's cable at n = 11 (54 columns) those
+  !> evaluations were most of a Floquet revolution's time.  The coupling must not be dropped.
+  !> With the block diagonal alone (this module's first tangent version) the corrector is a
+  !> modified Newton whose sensitivity corrections miss C_k dy, and its convergence test, which
+  !> sees only the size and rate of the last correction, accepts iterates whose iteration error
+  !> (so we read the counts below) the error test then takes for local error.  Measured on the
+  !> free 4-body chain in the stream (tests/test_monodromy.py, rtol 1e-8): 16 796 error-test
+  !> failures and 2 convergence failures in 20 000 steps, stalled at t = 0.163 s of the 0.23 s
+  !> period with steps of ~4e-8 s; with the coupling 4 676 steps, 180 error-test failures, none
+  !> of convergence.  J is factorised (block elimination, rotorcable_ggl_linear_solver) at the
+  !> last residual's iterate when cj has moved by more than CJ_WINDOW, after a convergence
+  !> failure, or after max_age steps; IDA calls no setup for a matrix-embedded solver
+  !> (chain_linear_solver's header).  A singular factor or a non-finite column is recoverable.
   integer(c_int) function tangent_ls_solve(lsol, a, x, b, tol) bind(C)
     type(c_ptr), value :: lsol, a, x, b
     real(c_double), value :: tol
     type(sun_linear_solver), pointer :: wrapper
     type(tangent_data), pointer :: td
-    real(c_double), pointer :: xv(:), bv(:), dy(:)
+    real(c_double), pointer :: xv(:), bv(:)
     real(c_double), pointer, contiguous :: xs(:, :)
-    real(dp), allocatable :: yp(:), ydp(:), r0(:), rk(:, :)
-    real(dp) :: dnorm, eps
+    real(dp), allocatable :: yp(:), ydp(:), r0(:)
     real(c_double) :: cj
     integer(c_long) :: steps, fails
     integer(c_int) :: flag
-    integer :: n, k, info
+    integer :: n, info
     call c_f_pointer(lsol, wrapper)
     call c_f_pointer(wrapper%content, td)
     tangent_ls_solve = SUNLS_SUCCESS
@@ -401,29 +399,25 @@ contains
     n = 2*td%nq + 2*td%nc
     call c_f_pointer(N_VGetArrayPointer(x), xv, [n*(td%ns + 1)])
     call c_f_pointer(N_VGetArrayPointer(b), bv, [n*(td%ns + 1)])
-    xv = bv
+    xv(1:n) = bv(1:n)
     call block_solve(td%block, bv(1:n), xv(1:n))
-    dy => xv(1:n)
-    dnorm = norm2(dy)
-    if (dnorm > 0.0_dp) then
-      ! C_k dy by a forward difference along (dy, cj dy), step sqrt(eps) relative to y: its
-      ! O(sqrt(eps)) error only slows Newton's convergence by as much.
-      eps = sqrt(epsilon(1.0_dp))*(1.0_dp + norm2(td%y))/dnorm
-      allocate (yp(n), ydp(n), r0(n), rk(n, td%ns))
-      yp = td%y + eps*dy; ydp = td%yd + eps*cj*dy
-      call ggl_residual_dense(td%model, td%t, yp, ydp, r0)
-      call ggl_residual_columns(td%model, td%t, yp, ydp, td%s, td%sd, rk, held=.true.)
-      do k = 1, td%ns
-        xv(k*n + 1:(k + 1)*n) = xv(k*n + 1:(k + 1)*n) - (rk(:, k) - td%rs(:, k))/eps
-      end do
-      ! The model's kinematics and loads back at the iterate (ggl_residual_tangent reads them).
-      call ggl_residual_dense(td%model, td%t, td%y, td%yd, r0)
-      td%coupling_evals = td%coupling_evals + 1
+    ! The columns' right-hand sides at the updated state (this function's doc).
+    allocate (yp(n), ydp(n), r0(n))
+    yp = td%y + xv(1:n); ydp = td%yd + cj*xv(1:n)
+    call ggl_residual_dense(td%model, td%t, yp, ydp, r0)
+    xs(1:n, 1:td%ns) => xv(n + 1:n*(td%ns + 1))
+    call ggl_residual_columns(td%model, td%t, yp, ydp, td%s, td%sd, xs, held=.true.)
+    td%column_evals = td%column_evals + 1
+    if (.not. all(abs(xs) <= huge(1.0_dp))) then
+      tangent_ls_solve = SUNLS_PACKAGE_FAIL_REC
+      return
     end if
+    xs = -xs
+    ! The model's kinematics and loads back at the iterate (a factorisation reads them).
+    call ggl_residual_dense(td%model, td%t, td%y, td%yd, r0)
     ! All the columns in one call (matrix products and LAPACK solves over the block, BLAS level
     ! 3) instead of one triangular pair each: those were a fifth of a Newton-Picard revolution's
     ! time on the main job's cable (perf, 10 columns of order 78).
-    xs(1:n, 1:td%ns) => xv(n + 1:n*(td%ns + 1))
     call block_solve_columns(td%block, xs)
   end function tangent_ls_solve
 
