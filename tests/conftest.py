@@ -57,7 +57,7 @@ def deck_copy(tmp_path):
 def pytest_configure(config):
     config.addinivalue_line(
         "markers", "whole_job: runs a whole refined job or a multi-start design study, minutes under the debug "
-        "build (-O0, -fcheck=all); .ci/tests runs it on the release build only, since the debug pass looks for "
+        "build (-Og, -fcheck=all); .ci/tests runs it on the release build only, since the debug pass looks for "
         "uninitialised values and bad indices, which the smaller tests of the same Fortran routines reach")
 
 
